@@ -1,0 +1,316 @@
+"""The ``tacreasoner`` command: thin sub-commands over the library parts.
+
+Argument mistakes end as one ``error: …`` line on stderr with exit code 2 (no traceback), because a
+user who typed ``--objects -3`` needs the message, not the stack. Set ``TACREASONER_DEBUG=1`` to get
+the traceback instead. Heavy modules are imported inside the commands so ``--help`` and
+``--version`` stay instant.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
+from typing import Annotated, ParamSpec, TypeVar
+
+import typer
+from rich.console import Console
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    ProgressColumn,
+    Task,
+    TaskID,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
+from rich.text import Text
+
+from tacreasoner import __version__
+
+app = typer.Typer(
+    name="tacreasoner",
+    help="TacReasoner: tactile-language reasoning. Simulate tactile video (DynTAC-Sim) and preview it.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+console = Console(highlight=False, soft_wrap=True)
+progress_console = Console(stderr=True)
+
+P = ParamSpec("P")
+R = TypeVar("R")
+USAGE_EXIT = 2
+QUICKSTART_DIR = Path("runs/quickstart")
+
+
+# ------------------------------------------------------------------------------------------ errors
+
+
+def _one_line(exc: BaseException) -> str:
+    """The library's message without Python's decorations (KeyError quotes, errno prefixes)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        text = f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
+    elif isinstance(exc, KeyError) and exc.args:
+        text = str(exc.args[0])
+    else:
+        text = str(exc) or type(exc).__name__
+    return " ".join(text.splitlines())
+
+
+def cli_errors(func: Callable[P, R]) -> Callable[P, R]:
+    """Turn the library's ValueError/KeyError/OSError into one stderr line and exit code 2."""
+
+    @functools.wraps(func)
+    def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
+        try:
+            return func(*args, **kwargs)
+        except (ValueError, KeyError, OSError) as exc:
+            if os.environ.get("TACREASONER_DEBUG"):
+                raise
+            typer.echo(f"error: {_one_line(exc)}", err=True)
+            raise typer.Exit(USAGE_EXIT) from None
+
+    return wrapper
+
+
+def _at_least_one(option: str, value: int | None) -> None:
+    if value is not None and value < 1:
+        raise ValueError(f"{option} must be at least 1, got {value}")
+
+
+def _sensor_list(text: str) -> list[str]:
+    return [s.strip() for s in text.split(",") if s.strip()]
+
+
+# ------------------------------------------------------------------------------------------ progress
+
+
+class _RateColumn(ProgressColumn):
+    def render(self, task: Task) -> Text:
+        speed = task.speed
+        return Text(f"{speed:.2f} clips/s" if speed else "– clips/s", style="progress.data.speed")
+
+
+class ClipProgress:
+    """A rich progress bar fed by ``generate_dataset``'s ``progress(done, total)`` callback.
+
+    It starts on the first report, so a run that fails its argument checks prints no empty bar, and
+    clips already on disk (resume) count as done without inflating the clips/s rate.
+    """
+
+    def __init__(self, label: str = "simulating") -> None:
+        self._label = label
+        self._progress: Progress | None = None
+        self._task: TaskID | None = None
+
+    def __call__(self, done: int, total: int) -> None:
+        if self._progress is None:
+            self._progress = Progress(
+                TextColumn(self._label), BarColumn(), MofNCompleteColumn(), TextColumn("clips"),
+                _RateColumn(), TextColumn("elapsed"), TimeElapsedColumn(), TextColumn("ETA"),
+                TimeRemainingColumn(), console=progress_console,
+            )
+            self._progress.start()
+            self._task = self._progress.add_task(self._label, total=total, completed=done)
+        elif self._task is not None:
+            self._progress.update(self._task, completed=done)
+
+    def __enter__(self) -> ClipProgress:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        if self._progress is not None:
+            self._progress.stop()
+
+
+# ------------------------------------------------------------------------------------------ simulate
+
+
+@dataclass(frozen=True)
+class SimulationSummary:
+    manifest: Path
+    clips: int
+    frames: int
+    new_clips: int
+    new_frames: int
+    seconds: float
+
+    def text(self) -> str:
+        rate = self.new_frames / self.seconds if self.seconds > 0 else 0.0
+        reused = self.clips - self.new_clips
+        rendered = (f"{self.new_clips} clips ({self.new_frames} frames) rendered in {self.seconds:.1f} s "
+                    f"wall time ({rate:.0f} frames/s)" if self.new_clips else "nothing left to render")
+        resumed = f", {reused} clips resumed from disk" if reused else ""
+        return (f"Dataset: {self.clips} clips, {self.frames} frames; {rendered}{resumed}. "
+                f"Manifest: {self.manifest}")
+
+
+def run_simulation(out: Path, objects: int, repeats: int, sensors: list[str], seed: int, workers: int | None,
+                   overwrite: bool) -> SimulationSummary:
+    """``generate_dataset`` with a progress bar, timed, and counted (new vs resumed clips)."""
+    from tacreasoner.sim.generate import generate_dataset, read_manifest
+
+    _at_least_one("--workers", workers)
+    before = set() if overwrite else set(out.glob("clips/*/*.json"))
+    start = time.perf_counter()
+    with ClipProgress() as progress:
+        manifest = generate_dataset(out, objects, repeats, sensors, seed, workers, overwrite,
+                                    progress=progress)
+    seconds = time.perf_counter() - start
+    records = read_manifest(manifest)
+    new = [r for r in records if (out / r["video"]).with_suffix(".json") not in before]
+    return SimulationSummary(manifest, len(records), sum(r["n_frames"] for r in records), len(new),
+                             sum(r["n_frames"] for r in new), seconds)
+
+
+OutDir = Annotated[Path, typer.Option("--out", help="Dataset directory (an existing one is resumed).")]
+Objects = Annotated[int, typer.Option("--objects", help="Objects: the 15 named ones, then procedural.")]
+Repeats = Annotated[int, typer.Option("--repeats", help="Clips per object and sensor (slide, rotate, …).")]
+Seed = Annotated[int, typer.Option("--seed", help="Master seed; a clip depends only on it and its position.")]
+Workers = Annotated[int | None, typer.Option("--workers", help="Worker processes (default: CPU count).",
+                                             show_default=False)]
+Overwrite = Annotated[bool, typer.Option("--overwrite", help="Discard finished clips instead of resuming.")]
+
+
+@app.command()
+@cli_errors
+def simulate(
+    out: OutDir,
+    objects: Objects = 100,
+    repeats: Repeats = 5,
+    sensors: Annotated[str, typer.Option("--sensors", help="Comma-separated: mini, digit, tac3d; NAME@FPS; "
+                                                           "mini+markers.")] = "mini",
+    seed: Seed = 0,
+    workers: Workers = None,
+    overwrite: Overwrite = False,
+) -> None:
+    """Generate a DynTAC-Sim dataset: mp4 clips + per-frame ground truth in manifest.jsonl (resumable)."""
+    summary = run_simulation(out, objects, repeats, _sensor_list(sensors), seed, workers, overwrite)
+    console.print(summary.text())
+
+
+# ------------------------------------------------------------------------------------------ preview
+
+
+@app.command("sim-preview")
+@cli_errors
+def sim_preview(
+    out: Annotated[Path, typer.Option("--out", help="Contact sheet PNG (plot: <stem>_signals.png).")],
+    dataset: Annotated[Path | None, typer.Option("--dataset", help="Preview a clip of this dataset.")] = None,
+    clip: Annotated[str | None, typer.Option(
+        "--clip", help="Clip id in the dataset, e.g. mini/apple_real_0 (default: the first clip).")] = None,
+    object_name: Annotated[str | None, typer.Option(
+        "--object", help="Catalogue object to simulate (default: apple_real).")] = None,
+    sensor: Annotated[str | None, typer.Option("--sensor", help="Sensor style (default: mini).")] = None,
+    action: Annotated[str | None, typer.Option("--action", help="slide or rotate (default: slide).")] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="Master seed (default: 0).")] = None,
+) -> None:
+    """Write a contact sheet and a ground-truth plot for one clip (simulated now, or from a dataset)."""
+    from tacreasoner.sim.generate import read_manifest
+    from tacreasoner.sim.preview import preview_from_dataset, simulate_catalogue_clip, write_preview
+
+    if dataset is None:
+        if clip is not None:
+            raise ValueError("--clip needs --dataset")
+        preview = simulate_catalogue_clip(object_name or "apple_real", sensor or "mini", action or "slide",
+                                          seed or 0)
+    else:
+        options = {"--object": object_name, "--sensor": sensor, "--action": action, "--seed": seed}
+        given = [name for name, value in options.items() if value is not None]
+        if given:
+            raise ValueError(f"{', '.join(given)} cannot be combined with --dataset (the clip fixes them)")
+        clip_id = clip or read_manifest(dataset)[0]["clip_id"]
+        preview = preview_from_dataset(dataset, clip_id)
+    for path in write_preview(preview, out):
+        console.print(str(path))
+
+
+# ------------------------------------------------------------------------------------------ quickstart
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One named step of a pipeline command; ``run`` returns the lines that say what it produced."""
+
+    name: str
+    purpose: str
+    run: Callable[[], list[str]]
+
+
+def run_stages(stages: list[Stage]) -> None:
+    """Run stages in order, announcing each and timing it (every stage must be safe to re-run)."""
+    for number, stage in enumerate(stages, 1):
+        console.print(f"[bold][{number}/{len(stages)}] {stage.name}[/bold]: {stage.purpose}")
+        start = time.perf_counter()
+        lines = stage.run()
+        for line in lines:
+            console.print(f"    {line}")
+        console.print(f"    done in {time.perf_counter() - start:.1f} s")
+
+
+def _preview_stage(dataset: Path, out_dir: Path) -> list[str]:
+    from tacreasoner.sim.generate import read_manifest
+    from tacreasoner.sim.preview import preview_from_dataset, real_and_fake_clip_ids, write_preview
+
+    lines = []
+    for clip_id in real_and_fake_clip_ids(read_manifest(dataset)):
+        png = out_dir / f"{clip_id.replace('/', '_')}.png"
+        lines += [str(p) for p in write_preview(preview_from_dataset(dataset, clip_id), png)]
+    return lines or ["no real/fake fruit clip in the dataset (use --objects 2 or more); nothing to preview"]
+
+
+@app.command()
+@cli_errors
+def quickstart(
+    out: Annotated[Path, typer.Option("--out", help="Run directory (re-running resumes).")] = QUICKSTART_DIR,
+    objects: Objects = 100,
+    repeats: Repeats = 5,
+    seed: Seed = 0,
+    workers: Workers = None,
+    overwrite: Overwrite = False,
+) -> None:
+    """Run the pipeline end to end. Today: simulate a DynTAC-Sim corpus, preview a real and a fake fruit."""
+    _at_least_one("--workers", workers)
+    sim_dir, preview_dir = out / "sim", out / "preview"
+
+    def simulate_stage() -> list[str]:
+        return [run_simulation(sim_dir, objects, repeats, ["mini"], seed, workers, overwrite).text()]
+
+    stages = [
+        Stage("simulate", f"DynTAC-Sim corpus → {sim_dir}", simulate_stage),
+        Stage("preview", f"contact sheets + ground-truth plots → {preview_dir}",
+              lambda: _preview_stage(sim_dir, preview_dir)),
+    ]
+    run_stages(stages)
+    console.print(f"\nQuickstart finished. Simulated corpus: {sim_dir} (manifest.jsonl, clips/); previews: "
+                  f"{preview_dir}. The model, TouchCoT, training and evaluation stages are added in later "
+                  "releases; re-running this command resumes where it stopped.")
+
+
+# ------------------------------------------------------------------------------------------ entry point
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        typer.echo(f"tacreasoner {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[bool, typer.Option("--version", callback=_print_version, is_eager=True,
+                                          help="Print the version and exit.")] = False,
+) -> None:
+    """TacReasoner: tactile-language reasoning. Simulate tactile video (DynTAC-Sim) and preview it."""
+
+
+def main() -> None:
+    app(prog_name="tacreasoner")
