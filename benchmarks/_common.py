@@ -58,7 +58,9 @@ def write_results(name: str, payload: dict, markdown: str) -> tuple[Path, Path]:
 
 def md_table(headers: list[str], rows: list[list]) -> str:
     def fmt(v: object) -> str:
-        return f"{v:.3f}" if isinstance(v, float) else str(v)
+        if isinstance(v, float):
+            return f"{v:.1f}" if abs(v) >= 10 else f"{v:.3f}"
+        return str(v)
 
     lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
     lines += ["| " + " | ".join(fmt(v) for v in row) + " |" for row in rows]

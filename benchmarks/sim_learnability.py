@@ -67,8 +67,10 @@ def _cue_matrix(rows: list[dict], key: str, actions: list[str]) -> np.ndarray:
     names = sorted(rows[0][key])
     x = np.asarray([[r[key][n] for n in names] for r in rows], float)
     signed_log = np.sign(x) * np.log1p(np.abs(x))
-    action = np.asarray([[a == "slide"] for a in actions], float)
-    return np.concatenate([x, signed_log, action], axis=1)
+    slide = np.asarray([[a == "slide"] for a in actions], float)
+    both = np.concatenate([x, signed_log], axis=1)
+    # Slide and rotate clips show friction through different cues: separate weights per action.
+    return np.concatenate([both * slide, both * (1.0 - slide), slide], axis=1)
 
 
 def main() -> None:

@@ -31,11 +31,11 @@ def _clip_stats(frames: np.ndarray) -> tuple[dict, np.ndarray, np.ndarray]:
     bg = frames[0].astype(np.float32)
     top = frames[peak].astype(np.float32)
     diff = np.abs(top - bg).mean(-1)
+    corners = np.asarray([bg[:30, :30].mean(), bg[-30:, -30:].mean(), bg[:30, -30:].mean(), bg[-30:, :30].mean()])
     stats = {
         "bg_mean_r": bg[..., 0].mean(), "bg_mean_g": bg[..., 1].mean(), "bg_mean_b": bg[..., 2].mean(),
         "bg_std_r": bg[..., 0].std(), "bg_std_g": bg[..., 1].std(), "bg_std_b": bg[..., 2].std(),
-        "bg_centre_minus_corner": float(bg[80:160, 110:210].mean() - np.mean([bg[:30, :30].mean(), bg[-30:, -30:].mean(),
-                                                                        bg[:30, -30:].mean(), bg[-30:, :30].mean()])),
+        "bg_centre_minus_corner": float(bg[80:160, 110:210].mean() - corners.mean()),
         "noise_std": float((frames[1].astype(np.float32) - bg).std()),
         "peak_mean_abs_diff": float(diff.mean()),
         "peak_p99_abs_diff": float(np.percentile(diff, 99)),

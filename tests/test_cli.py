@@ -179,5 +179,5 @@ def test_installed_entry_point_prints_one_line_errors(tmp_path: Path) -> None:
     proc = subprocess.run([str(exe), "simulate", "--out", str(tmp_path / "ds"), "--objects", "-3"],
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2
-    assert proc.stderr.strip() == "error: --objects must be at least 1, got -3"
+    assert proc.stderr.strip() == "error: number of objects (--objects) must be at least 1, got -3"
     assert proc.stdout == ""

@@ -164,14 +164,19 @@ def clip_cues(signals: FrameSignals, phases: np.ndarray) -> dict[str, float]:
         jitter = float(np.linalg.norm(cen - smooth, axis=1).mean())
     steady = hold | action
     texture, bumps = _mean(signals.texture, steady), _mean(signals.bumps, steady)
-    shear_tint = 0.0
-    if action.any() and hold.any():
-        shear_tint = float(np.linalg.norm(signals.tint[action].mean(0) - signals.tint[hold].mean(0)))
+    shear_tint = action_change = 0.0
+    act_idx = np.where(action)[0]
+    if act_idx.size >= 4 and hold.any():
+        # Steady part of the action (its second half), against the hold: the colour shift of the tilt.
+        steady_act = act_idx[act_idx.size // 2:]
+        shear_tint = float(np.linalg.norm(signals.tint[steady_act].mean(0) - signals.tint[hold].mean(0)))
+        action_change = float(inten[steady_act].mean() / max(inten[hold].mean(), 1e-6) - 1.0)
     return {
         "max_area": max_area,
         "bump_energy": bumps,
         "bump_ratio": float(bumps / max(texture, 1e-6)),
         "shear_tint": shear_tint,
+        "action_intensity_change": action_change,
         "shear_tint_ratio": float(shear_tint / max(inten[peak_i], 1e-6)),
         "peak_intensity": float(inten[peak_i]),
         "peak_gradient": float(signals.gradient[peak_i]),

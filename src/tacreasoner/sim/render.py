@@ -30,7 +30,8 @@ NOISE_BANK = 7
 MARKER_DILATION_MM = 3.0
 PAD = 24
 """Pixels rendered beyond each image edge so the frequency-domain spreading does not wrap around."""
-SHEAR_TILT_PER_MM = 0.03
+SHEAR_TILT_PER_MM = 0.08
+TORSION_RIM_MM_PER_RAD = 1.5
 """Gel surface slope inside the contact per mm of stuck-patch shear displacement."""
 
 
@@ -117,6 +118,11 @@ def _macro_height(traj: ContactTrajectory, idx: np.ndarray, style: SensorStyle, 
         ux = shear[:, 0].astype(dtype)[:, None, None]
         uy = shear[:, 1].astype(dtype)[:, None, None]
         height = height + SHEAR_TILT_PER_MM * (ux * dx + uy * dy) * np.sqrt(profile)
+    twist = np.abs(traj.gel_twist[idx])
+    if np.any(twist > 0):
+        # Torsion wrinkles the gel at the contact rim: a raised ring growing with the stuck-patch twist.
+        rim = np.exp(-(((np.sqrt(r2) - a) / (0.25 * a)) ** 2))
+        height = height + TORSION_RIM_MM_PER_RAD * twist.astype(dtype)[:, None, None] * rim
     return height.astype(dtype)
 
 
