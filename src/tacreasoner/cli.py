@@ -36,7 +36,7 @@ from tacreasoner import __version__
 
 app = typer.Typer(
     name="tacreasoner",
-    help="TacReasoner: tactile-language reasoning. Simulate tactile video (DynTAC-Sim) and preview it.",
+    help="TacReasoner: tactile-language reasoning. Simulate tactile video, build benchmarks, score predictions.",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
@@ -293,6 +293,114 @@ def quickstart(
     console.print(f"\nQuickstart finished. Simulated corpus: {sim_dir} (manifest.jsonl, clips/); previews: "
                   f"{preview_dir}. The model, TouchCoT, training and evaluation stages are added in later "
                   "releases; re-running this command resumes where it stopped.")
+
+
+# ------------------------------------------------------------------------------------------ benchmark
+
+Bench = Annotated[Path, typer.Option("--bench", help="Benchmark directory (from `tacreasoner build-bench`).")]
+Split = Annotated[str, typer.Option("--split", help="train, val, test or test_heldout_sensor.")]
+Mode = Annotated[str, typer.Option("--mode", help="Answer extraction: strict or lenient.")]
+
+
+@app.command("build-bench")
+@cli_errors
+def build_bench_cmd(
+    source: Annotated[str, typer.Option("--source", help="sim, physiclear or vtv150k.")],
+    out: Annotated[Path, typer.Option("--out", help="Benchmark directory to write.")],
+    data: Annotated[Path | None, typer.Option(
+        "--data", help="Source data: a simulator dataset, a PhysiCLeAR folder (default: ../shared/data/physiclear) "
+                       "or a VTV-150K video folder.")] = None,
+    ranks: Annotated[Path | None, typer.Option("--ranks", help="VTV-150K per-object rank table (JSON/CSV).")] = None,
+    seed: Seed = 0,
+    heldout_sensor: Annotated[str | None, typer.Option(
+        "--heldout-sensor", help="Sensor kept out of train/val/test (sim; default: the last of several).")] = None,
+    per_task: Annotated[int | None, typer.Option("--per-task", help="Items per task and split (default: "
+                                                                    "about one per clip).")] = None,
+) -> None:
+    """Build a benchmark directory: object-level splits, QA items per task, bench.json with counts."""
+    from tacreasoner.data.readers import default_physiclear_dir
+    from tacreasoner.tasks.bench import build_bench
+
+    _at_least_one("--per-task", per_task)
+    if data is None:
+        if source != "physiclear":
+            raise ValueError(f"--source {source} needs --data")
+        data = default_physiclear_dir()
+        if data is None:
+            raise ValueError("PhysiCLeAR data not found: pass --data or set TACREASONER_PHYSICLEAR")
+    if not data.exists():
+        raise FileNotFoundError(f"{data}: no such directory")
+    summary = build_bench(source, data, out, seed=seed, ranks=ranks, heldout_sensor=heldout_sensor,
+                          per_task=per_task)
+    console.print(summary.table())
+    for note in summary.notes:
+        console.print(f"note: {note}")
+    console.print(f"Benchmark written to {out}")
+
+
+@app.command()
+@cli_errors
+def baseline(
+    bench: Bench,
+    out: Annotated[Path, typer.Option("--out", help="Predictions JSONL to write.")],
+    kind: Annotated[str, typer.Option("--kind", help="random or majority (of the train split's answers).")],
+    split: Split = "test",
+    seed: Seed = 0,
+) -> None:
+    """Write predictions of a model-free baseline, in the same format a model writes."""
+    from tacreasoner.evaluate.baselines import predict, write_predictions
+    from tacreasoner.tasks.bench import load_bench
+
+    _, items = load_bench(bench, split)
+    train = load_bench(bench, "train")[1] if kind == "majority" else []
+    path = write_predictions(predict(items, kind, train=train, seed=seed), out)
+    console.print(f"{len(items)} {kind} predictions → {path}")
+
+
+@app.command()
+@cli_errors
+def score(
+    predictions: Annotated[list[Path], typer.Argument(help="Prediction JSONL file(s); several = several seeds.")],
+    bench: Bench,
+    split: Split = "test",
+    mode: Mode = "strict",
+    out: Annotated[Path | None, typer.Option("--out", help="Report directory (default: next to the "
+                                                           "first predictions file).")] = None,
+) -> None:
+    """Score predictions: per-task accuracy, Wilson 95% CIs, parse failures, chance, Average (MD/CSV/JSON/PNG)."""
+    from tacreasoner.evaluate.report import evaluate
+    from tacreasoner.tasks.bench import load_bench
+
+    _, items = load_bench(bench, split)
+    out_dir = out or predictions[0].with_suffix("").parent / f"{predictions[0].stem}_report"
+    report = evaluate(items, predictions, mode, out_dir)
+    console.print(report.to_markdown())
+    console.print(f"Report files in {out_dir}")
+
+
+@app.command()
+@cli_errors
+def compare(
+    a: Annotated[Path, typer.Argument(help="Predictions JSONL of model A.")],
+    b: Annotated[Path, typer.Argument(help="Predictions JSONL of model B.")],
+    bench: Bench,
+    split: Split = "test",
+    mode: Mode = "strict",
+    out: Annotated[Path | None, typer.Option("--out", help="Directory for comparison.md/json.")] = None,
+) -> None:
+    """Paired exact McNemar test between two prediction files on the same benchmark items."""
+    from tacreasoner.evaluate.report import compare_runs, load_predictions, write_comparison
+    from tacreasoner.tasks.bench import load_bench
+    from tacreasoner.tasks.scoring import score_predictions
+
+    _, items = load_bench(bench, split)
+    records = [score_predictions(items, {i: p["prediction"] for i, p in load_predictions(path).items()}, mode)
+               for path in (a, b)]
+    comparison = compare_runs(records[0], records[1], a.stem, b.stem)
+    console.print(comparison.to_markdown())
+    if out is not None:
+        paths = write_comparison(comparison, out)
+        console.print("wrote " + ", ".join(str(p) for p in paths.values()))
 
 
 # ------------------------------------------------------------------------------------------ entry point

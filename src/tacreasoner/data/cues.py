@@ -93,25 +93,36 @@ def _above_floor(x: np.ndarray) -> np.ndarray:
     return np.maximum(x - floor, 0.0)
 
 
-def detect_phases(signals: FrameSignals, action: str = "dynamic") -> np.ndarray:
+def detect_phases(signals: FrameSignals, action: str = "dynamic", *, press_level: float = 0.9,
+                  release_level: float = 0.9) -> np.ndarray:
     """Coarse phases from pixels alone: no_contact, press, hold, <action>, release.
 
-    Contact is where the imprint is visible; press runs until the imprint first reaches 90 % of its
-    peak, release starts where it last drops below that; the plateau between is split into hold
-    (first 40 %) and the action.
+    Contact is where the imprint is visible; press runs until the imprint first reaches
+    ``press_level`` (90 %) of its peak, release starts where it last drops below ``release_level``
+    of it (90 %; hand-held real contacts fade while still touching, so a lower level suits them);
+    the plateau between is split into hold (first 40 %) and the action.
     """
-    n = len(signals)
+    return phases_from_level(signals.intensity, action, press_level=press_level, release_level=release_level)
+
+
+def phases_from_level(level: np.ndarray, action: str = "dynamic", *, press_level: float = 0.9,
+                      release_level: float = 0.9) -> np.ndarray:
+    """:func:`detect_phases` on any per-frame contact-strength curve (0 or near it = no contact)."""
+    for name, value in (("press_level", press_level), ("release_level", release_level)):
+        if not 0.0 < value <= 1.0:
+            raise ValueError(f"{name} must be in (0, 1], got {value}")
+    level = np.asarray(level, dtype=np.float64)
+    n = len(level)
     out = np.full(n, "no_contact", dtype=object)
-    level = signals.intensity
     peak = float(level.max()) if n else 0.0
     head = level[1 : max(4, n // 20)]
-    base, noise = float(np.median(head)), float(head.std())
+    base, noise = (float(np.median(head)), float(head.std())) if head.size else (0.0, 0.0)
     on = level > base + max(0.02 * (peak - base), 5.0 * noise, 0.1)
     if not on.any():
         return out
     first, last = int(np.argmax(on)), int(n - 1 - np.argmax(on[::-1]))
-    high = np.where(level >= base + 0.9 * (peak - base))[0]
-    top_start, top_end = int(high[0]), int(high[-1])
+    top_start = int(np.argmax(level >= base + press_level * (peak - base)))
+    top_end = int(np.where(level >= base + release_level * (peak - base))[0][-1])
     out[first:top_start + 1] = "press"
     plateau = np.arange(top_start + 1, top_end + 1)
     if plateau.size:

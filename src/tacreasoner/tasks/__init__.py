@@ -1,0 +1,1 @@
+"""Tasks: property vocabularies, QA item schema, QA builders, answer extraction and scoring."""

@@ -1,0 +1,235 @@
+"""Benchmark directories: clips from a source → object-level splits → QA items per split, on disk.
+
+A benchmark directory holds ``bench.json`` (source, settings, object → split, counts) and one
+``<split>.jsonl`` of QA items per split. Splits are by *object*: no object appears in two splits
+(checked before anything is written). TSA is zero-shot and never in ``train``.
+
+DynTAC-Sim-Bench (``source="sim"``) is the project's stand-in for the paper's DynTAC-Bench, *not*
+the paper's data: novel objects at test time, and one sensor style held out entirely for a second
+test file (``test_heldout_sensor.jsonl``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import re
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from tacreasoner.data.clip import TactileClip
+from tacreasoner.tasks.schema import SPLITS, TFA_TASKS, QAItem
+from tacreasoner.tasks.vocab import get_vocabulary
+
+SOURCES = ("sim", "physiclear", "vtv150k")
+BENCH_INFO = "bench.json"
+HELDOUT_SENSOR_FILE = "test_heldout_sensor.jsonl"
+BENCH_VERSION = 1
+
+
+def tasks_for(source: str, vocabulary: str, has_phases: bool, has_fruit: bool) -> list[str]:
+    """The tasks a source supports: TFA for each attribute of its vocabulary, comparisons, and the
+    dynamic tasks only where there are phases (OCSE) or real/fake fruit (RFOR)."""
+    attrs = [f"TFA-{a}" for a in get_vocabulary(vocabulary)]
+    tasks = [t for t in TFA_TASKS if t in attrs] + ["TFA-combined", "SFD", "SOI", "OSC", "TSA"]
+    if has_fruit:
+        tasks.append("RFOR")
+    if has_phases:
+        tasks.append("OCSE")
+    return tasks
+
+
+@dataclass
+class BenchSummary:
+    out_dir: Path
+    source: str
+    counts: dict[str, dict[str, int]]
+    """split → task → number of items."""
+    objects: dict[str, int]
+    """split → number of objects."""
+    notes: list[str] = field(default_factory=list)
+
+    def table(self) -> str:
+        tasks = sorted({t for c in self.counts.values() for t in c})
+        splits = list(self.counts)
+        lines = ["| task | " + " | ".join(splits) + " |", "|---|" + "---|" * len(splits)]
+        for t in tasks:
+            lines.append(f"| {t} | " + " | ".join(str(self.counts[s].get(t, 0)) for s in splits) + " |")
+        lines.append("| objects | " + " | ".join(str(self.objects.get(s, 0)) for s in splits) + " |")
+        return "\n".join(lines)
+
+
+def load_source(source: str, data: Path, ranks: Path | None = None) -> tuple[list[TactileClip], list[str]]:
+    """Clips of a source plus notes on what was skipped (never silently)."""
+    from tacreasoner.data import readers
+
+    if source == "sim":
+        return readers.read_sim_dataset(data), []
+    if source == "physiclear":
+        clips = readers.read_physiclear(data)
+        labelled = [c for c in clips if c.labels.get("physiclear")]
+        notes = [f"{len(clips) - len(labelled)} unlabelled PhysiCLeAR clips left out (no property labels)"]
+        return labelled, notes
+    if source == "vtv150k":
+        if ranks is None:
+            raise ValueError("--source vtv150k needs --ranks (the per-object rank table, JSON or CSV)")
+        clips = readers.read_vtv150k(data, ranks)
+        labelled = [c for c in clips if c.labels.get("vtv150k")]
+        return labelled, [f"{len(clips) - len(labelled)} VTV-150K clips without ranks left out"]
+    raise ValueError(f"unknown source {source!r}; choose from {', '.join(SOURCES)}")
+
+
+def _typical_of_name(clip: TactileClip) -> bool:
+    """Whether a simulated object feels like its name suggests (OSC is only answerable for those).
+
+    Procedural objects re-draw every parameter around a catalogue template but keep its name; an OSC
+    question ("which clip is the sponge?") is only fair when hardness and elasticity match the
+    template's. Real data and catalogue objects are typical by definition.
+    """
+    if clip.source != "sim":
+        return True
+    params = clip.meta.get("material_params") or {}
+    if not params.get("procedural"):
+        return True
+    from tacreasoner.sim.materials import derive_labels, get_material
+
+    template = derive_labels(get_material(re.sub(r"_\d+$", "", clip.object_id)))["vtv150k"]
+    ranks = clip.labels.get("vtv150k") or {}
+    return all(ranks.get(a) == template[a] for a in ("hardness", "elasticity"))
+
+
+def _relative_paths(items: list[QAItem], root: Path) -> None:
+    """Store video paths relative to the source root so a benchmark moves with its data."""
+    root = root.resolve()
+    for item in items:
+        refs = []
+        for ref in item.videos:
+            path = Path(ref.path) if ref.path else None
+            if path is not None and path.is_absolute() and path.resolve().is_relative_to(root):
+                ref = dataclasses.replace(ref, path=path.resolve().relative_to(root).as_posix())
+            refs.append(ref)
+        item.videos = refs
+
+
+def _build_split(clips: Sequence[TactileClip], tasks: Sequence[str], vocabulary: str, split: str, seed: int,
+                 per_task: int | None, source: str, notes: list[str]) -> list[QAItem]:
+    from tacreasoner.tasks.builders import build_items_with_report
+
+    items: list[QAItem] = []
+    plain = [t for t in tasks if t != "OSC"]
+    groups = [(plain, list(clips))]
+    if "OSC" in tasks:
+        groups.append((["OSC"], [c for c in clips if _typical_of_name(c)]))
+    for group_tasks, group_clips in groups:
+        if not group_tasks:
+            continue
+        built, report = build_items_with_report(group_clips, tasks=group_tasks, vocabulary=vocabulary, split=split,
+                                                seed=seed, per_task=per_task, source=source)
+        items += built
+        notes += [f"{split}: {w}" for w in report.warnings]
+    return items
+
+
+def _assign_splits(clips: Sequence[TactileClip], seed: int, fractions: tuple[float, float, float]) -> dict[str, str]:
+    from tacreasoner.data.splits import object_level_split
+
+    objects = sorted({c.object_id for c in clips})
+    fixed = {c.object_id: c.split for c in clips if c.split in SPLITS}
+    return object_level_split(objects, fractions=fractions, seed=seed, fixed=fixed)
+
+
+def build_bench(source: str, data: str | Path, out_dir: str | Path, *, seed: int = 0, ranks: str | Path | None = None,
+                heldout_sensor: str | None = None, per_task: int | None = None,
+                fractions: tuple[float, float, float] = (0.7, 0.15, 0.15)) -> BenchSummary:
+    """Write a benchmark directory; returns what was written (counts per split and task)."""
+    from tacreasoner.data.splits import check_no_leakage
+    from tacreasoner.tasks.formats import write_jsonl
+
+    data, out = Path(data), Path(out_dir)
+    clips, notes = load_source(source, data, Path(ranks) if ranks else None)
+    if not clips:
+        raise ValueError(f"{data}: no labelled clips found for source {source!r}")
+    vocabulary = "physiclear" if source == "physiclear" else "vtv150k"
+    sensors = sorted({c.sensor for c in clips})
+    held = None
+    if source == "sim":
+        held = heldout_sensor if heldout_sensor is not None else (sensors[-1] if len(sensors) > 1 else None)
+        if held is not None and held not in sensors:
+            raise ValueError(f"--heldout-sensor {held!r} is not in the dataset (sensors: {', '.join(sensors)})")
+        if held is None:
+            notes.append("only one sensor style in the dataset: no held-out-sensor test file")
+    main = [c for c in clips if c.sensor != held]
+    split_of = _assign_splits(main, seed, fractions)
+    check_no_leakage((split_of[c.object_id], c.object_id) for c in main)
+
+    out.mkdir(parents=True, exist_ok=True)
+    counts: dict[str, dict[str, int]] = {}
+    objects: dict[str, int] = {}
+    has_fruit = any(c.labels.get("real") is not None for c in clips)
+    has_phases = any(c.phases for c in clips)
+    all_tasks = tasks_for(source, vocabulary, has_phases, has_fruit)
+    files: dict[str, list[QAItem]] = {}
+    for split in SPLITS:
+        split_clips = [c for c in main if split_of[c.object_id] == split]
+        tasks = [t for t in all_tasks if not (split == "train" and t == "TSA")]
+        objects[split] = len({c.object_id for c in split_clips})
+        if not split_clips:
+            notes.append(f"split {split!r} has no objects")
+            files[split] = []
+            continue
+        files[split] = _build_split(split_clips, tasks, vocabulary, split, seed, per_task, source, notes)
+    if held is not None:
+        test_objects = {o for o, s in split_of.items() if s == "test"}
+        held_clips = [c for c in clips if c.sensor == held and c.object_id in test_objects]
+        items = _build_split(held_clips, all_tasks, vocabulary, "test", seed + 1, per_task, source, notes)
+        for item in items:
+            item.id = f"{item.id}-{held}"
+            item.meta["heldout_sensor"] = held
+        files["test_heldout_sensor"] = items
+        objects["test_heldout_sensor"] = len({c.object_id for c in held_clips})
+    for name, items in files.items():
+        _relative_paths(items, data)
+        path = out / (HELDOUT_SENSOR_FILE if name == "test_heldout_sensor" else f"{name}.jsonl")
+        write_jsonl(items, path)
+        counts[name] = dict(sorted(Counter(i.task for i in items).items()))
+
+    info = {
+        "version": BENCH_VERSION,
+        "source": source,
+        "name": "DynTAC-Sim-Bench (simulated; not the paper's DynTAC-Bench)" if source == "sim" else source,
+        "data": str(data.resolve()),
+        "video_root": str(data.resolve()),
+        "vocabulary": vocabulary,
+        "seed": seed,
+        "heldout_sensor": held,
+        "sensors": sensors,
+        "tasks": all_tasks,
+        "splits": dict(sorted(split_of.items())),
+        "counts": counts,
+        "objects": objects,
+        "notes": notes,
+    }
+    tmp = out / (BENCH_INFO + ".tmp")
+    tmp.write_text(json.dumps(info, indent=2))
+    os.replace(tmp, out / BENCH_INFO)
+    return BenchSummary(out, source, counts, objects, notes)
+
+
+def load_bench(bench_dir: str | Path, split: str = "test") -> tuple[dict, list[QAItem]]:
+    """``bench.json`` and the items of one split (``test_heldout_sensor`` for the held-out sensor file)."""
+    from tacreasoner.tasks.formats import read_jsonl
+
+    root = Path(bench_dir)
+    info_path = root / BENCH_INFO
+    if not info_path.exists():
+        raise FileNotFoundError(f"{root}: not a benchmark directory (no {BENCH_INFO}; run `tacreasoner build-bench`)")
+    info = json.loads(info_path.read_text())
+    name = HELDOUT_SENSOR_FILE if split == "test_heldout_sensor" else f"{split}.jsonl"
+    path = root / name
+    if not path.exists():
+        available = sorted(p.stem for p in root.glob("*.jsonl"))
+        raise FileNotFoundError(f"{path}: no such split; available: {', '.join(available)}")
+    return info, read_jsonl(path)

@@ -1,0 +1,96 @@
+"""Benchmark directories built from a simulated dataset and from a planted leak."""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+from pathlib import Path
+
+import pytest
+
+from tacreasoner.tasks.bench import BENCH_INFO, build_bench, load_bench
+from tacreasoner.tasks.scoring import check_gold
+
+
+@pytest.fixture(scope="module")
+def bench(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("bench")
+    build_bench("sim", small_sim_dataset, out, seed=0, heldout_sensor="digit")
+    return out
+
+
+def _all_items(bench: Path) -> dict[str, list]:
+    return {split: load_bench(bench, split)[1] for split in ("train", "val", "test", "test_heldout_sensor")}
+
+
+def test_objects_never_cross_splits_and_tsa_is_zero_shot(bench: Path) -> None:
+    splits_of = defaultdict(set)
+    for split, items in _all_items(bench).items():
+        for item in items:
+            for obj in item.objects:
+                splits_of[obj].add("test" if split == "test_heldout_sensor" else split)
+    assert splits_of and all(len(s) == 1 for s in splits_of.values())
+    train = load_bench(bench, "train")[1]
+    assert train and not any(i.task == "TSA" for i in train)
+    assert any(i.task == "TSA" for i in load_bench(bench, "test")[1])
+
+
+def test_heldout_sensor_file_holds_only_that_sensor_on_test_objects(bench: Path) -> None:
+    info, held = load_bench(bench, "test_heldout_sensor")
+    test_objects = {o for o, s in info["splits"].items() if s == "test"}
+    assert held
+    assert all(ref.clip_id.startswith("digit/") for i in held for ref in i.videos)
+    assert all(set(i.objects) <= test_objects for i in held)
+    main = [ref for split in ("train", "val", "test") for i in load_bench(bench, split)[1] for ref in i.videos]
+    assert all(ref.clip_id.startswith("mini/") for ref in main)
+
+
+def test_items_are_answerable_and_videos_resolve(bench: Path) -> None:
+    info = json.loads((bench / BENCH_INFO).read_text())
+    root = Path(info["video_root"])
+    for split, items in _all_items(bench).items():
+        assert info["counts"][split] == {t: sum(i.task == t for i in items) for t in info["counts"][split]}
+        for item in items:
+            check_gold(item)
+            for ref in item.videos:
+                assert not Path(ref.path).is_absolute()
+                assert (root / ref.path).exists()
+    tasks = {i.task for items in _all_items(bench).values() for i in items}
+    assert {"TFA-hardness", "TFA-combined", "SFD", "RFOR", "OCSE"} <= tasks
+
+
+def test_same_seed_same_benchmark(small_sim_dataset: Path, bench: Path, tmp_path: Path) -> None:
+    build_bench("sim", small_sim_dataset, tmp_path, seed=0, heldout_sensor="digit")
+    for name in ("train.jsonl", "test.jsonl", "test_heldout_sensor.jsonl"):
+        assert (tmp_path / name).read_text() == (bench / name).read_text()
+
+
+def test_bad_requests_are_clear_errors(small_sim_dataset: Path, tmp_path: Path, bench: Path) -> None:
+    with pytest.raises(ValueError, match="unknown source"):
+        build_bench("octopi", small_sim_dataset, tmp_path)
+    with pytest.raises(ValueError, match="needs --ranks"):
+        build_bench("vtv150k", small_sim_dataset, tmp_path)
+    with pytest.raises(ValueError, match="not in the dataset"):
+        build_bench("sim", small_sim_dataset, tmp_path, heldout_sensor="tac3d")
+    with pytest.raises(FileNotFoundError, match="no such split"):
+        load_bench(bench, "holdout")
+    with pytest.raises(FileNotFoundError, match="not a benchmark directory"):
+        load_bench(tmp_path / "nothing")
+
+
+def test_planted_leak_is_refused(small_sim_dataset: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """If a split assignment ever put one object's clips in two splits, nothing may be written."""
+    from tacreasoner.data import splits
+    from tacreasoner.tasks import bench as bench_mod
+
+    real_check = splits.check_no_leakage
+
+    def leaky(pairs):
+        pairs = list(pairs)
+        split, obj = pairs[0]
+        return real_check([*pairs, ("test" if split != "test" else "train", obj)])
+
+    monkeypatch.setattr(splits, "check_no_leakage", leaky)
+    with pytest.raises(splits.LeakageError):
+        bench_mod.build_bench("sim", small_sim_dataset, tmp_path / "b", heldout_sensor="digit")
+    assert not (tmp_path / "b" / BENCH_INFO).exists()
