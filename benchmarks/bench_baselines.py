@@ -19,14 +19,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, stamp, write_results
 
 REPO = Path(__file__).resolve().parents[1]
-PHYSICLEAR = REPO.parent / "shared" / "data" / "physiclear"
+PHYSICLEAR = Path("../shared/data/physiclear")
+"""Relative to the repository root: commands run there, so the recorded commands are the ones to type."""
 
 
 def run(*args: str) -> None:
     """One ``tacreasoner`` command, echoed so the result file shows exactly what produced it."""
     cmd = [sys.executable, "-m", "tacreasoner", *args]
     print("$ tacreasoner " + " ".join(args), flush=True)
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, cwd=REPO)
 
 
 def baselines(bench: Path, split: str, label: str, commands: list[str]) -> dict:
@@ -41,13 +42,13 @@ def baselines(bench: Path, split: str, label: str, commands: list[str]) -> dict:
         score_args = ["score", str(path), "--bench", str(bench), "--split", split, "--out", str(report_dir)]
         run(*score_args)
         commands += ["tacreasoner " + " ".join(args), "tacreasoner " + " ".join(score_args)]
-        out[kind] = json.loads((report_dir / "report.json").read_text())
+        out[kind] = json.loads((REPO / report_dir / "report.json").read_text())
     cmp_dir = bench / "reports" / f"{split}_random_vs_majority"
     cmp_args = ["compare", str(preds / f"{split}_random.jsonl"), str(preds / f"{split}_majority.jsonl"),
                 "--bench", str(bench), "--split", split, "--out", str(cmp_dir)]
     run(*cmp_args)
     commands.append("tacreasoner " + " ".join(cmp_args))
-    out["comparison"] = json.loads((cmp_dir / "comparison.json").read_text())
+    out["comparison"] = json.loads((REPO / cmp_dir / "comparison.json").read_text())
     out["label"] = label
     return out
 
@@ -71,7 +72,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--objects", type=int, default=100)
     ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--work", type=Path, default=REPO / "runs" / "bench" / "baselines")
+    ap.add_argument("--work", type=Path, default=Path("runs/bench/baselines"), help="relative to the repo root")
     args = ap.parse_args()
     work: Path = args.work
     commands: list[str] = []
@@ -86,7 +87,7 @@ def main() -> None:
     results = {"dyntac_test": baselines(bench, "test", "DynTAC-Sim-Bench test (novel objects)", commands),
                "dyntac_heldout": baselines(bench, "test_heldout_sensor",
                                            "DynTAC-Sim-Bench test, held-out sensor (DIGIT)", commands)}
-    if (PHYSICLEAR / "labels.json").exists():
+    if (REPO / PHYSICLEAR / "labels.json").exists():
         pbench = work / "physiclear_bench"
         p_args = ["build-bench", "--source", "physiclear", "--data", str(PHYSICLEAR), "--out", str(pbench)]
         run(*p_args)

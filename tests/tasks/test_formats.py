@@ -57,7 +57,7 @@ def _edit(item: QAItem, **changes: object) -> str:
 
 
 @pytest.mark.parametrize(("make_bad", "needle"), [
-    (lambda it: '{"id": "x", "task": ', "bad JSON"),
+    (lambda it: '{"id": "x", "task": ', "not valid JSON"),
     (lambda it: "[1, 2]", "expected a JSON object"),
     (lambda it: _edit(it, colour="red"), "unknown field(s) ['colour']"),
     (lambda it: json.dumps({k: v for k, v in it.to_dict().items() if k != "gold"}), "missing field(s) ['gold']"),

@@ -43,17 +43,26 @@ class FrameSignals:
         return len(self.intensity)
 
 
-def frame_signals(frames: np.ndarray, background: np.ndarray | None = None, stride: int = STRIDE) -> FrameSignals:
-    """Signals of a T×H×W×3 uint8 clip. The background defaults to the first frame (no contact yet)."""
+def smoothed_difference(frames: np.ndarray, background: np.ndarray | None = None,
+                        stride: int = STRIDE) -> tuple[np.ndarray, np.ndarray]:
+    """Subsampled, lightly blurred frames and their difference from the background (float32).
+
+    The 3×3 box blur removes most sensor noise, so differences measure the gel, not the noise.
+    The background defaults to the first frame (no contact yet).
+    """
     if frames.ndim != 4 or frames.shape[-1] != 3:
         raise ValueError(f"frames must be T×H×W×3, got shape {frames.shape}")
-    # A light box blur removes most sensor noise, so frame differences measure motion, not noise.
     small = ndimage.uniform_filter(frames[:, ::stride, ::stride].astype(np.float32), size=(1, 3, 3, 1))
     if background is None:
         bg = small[0]
     else:
         bg = ndimage.uniform_filter(np.asarray(background, np.float32)[::stride, ::stride], size=(3, 3, 1))
-    diff = small - bg[None]
+    return small, small - bg[None]
+
+
+def frame_signals(frames: np.ndarray, background: np.ndarray | None = None, stride: int = STRIDE) -> FrameSignals:
+    """Signals of a T×H×W×3 uint8 clip. The background defaults to the first frame (no contact yet)."""
+    small, diff = smoothed_difference(frames, background, stride)
     mag = np.abs(diff).mean(axis=-1)
     mag_s = ndimage.uniform_filter(mag, size=(1, 5, 5))
     mask = mag_s > CONTACT_THRESHOLD

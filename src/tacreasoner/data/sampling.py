@@ -17,7 +17,7 @@ import av
 import numpy as np
 from scipy import ndimage
 
-from tacreasoner.data.cues import CONTACT_THRESHOLD, phases_from_level
+from tacreasoner.data.cues import CONTACT_THRESHOLD, phases_from_level, smoothed_difference
 
 __all__ = [
     "CONTACT_PHASES",
@@ -240,14 +240,8 @@ def contact_level(frames: np.ndarray, background: np.ndarray | None = None, stri
     with nothing touching (it even steps at keyframes), swamping a light touch; only pixels that
     clearly changed count here, so no contact reads as 0.
     """
-    if frames.ndim != 4 or frames.shape[-1] != 3:
-        raise ValueError(f"frames must be T×H×W×3, got shape {frames.shape}")
-    small = ndimage.uniform_filter(frames[:, ::stride, ::stride].astype(np.float32), size=(1, 3, 3, 1))
-    if background is None:
-        bg = small[0]
-    else:
-        bg = ndimage.uniform_filter(np.asarray(background, np.float32)[::stride, ::stride], size=(3, 3, 1))
-    magnitude = ndimage.uniform_filter(np.abs(small - bg[None]).mean(axis=-1), size=(1, 5, 5))
+    _, diff = smoothed_difference(frames, background, stride)
+    magnitude = ndimage.uniform_filter(np.abs(diff).mean(axis=-1), size=(1, 5, 5))
     return np.maximum(magnitude - CONTACT_THRESHOLD, 0.0).mean(axis=(1, 2)) * 100.0
 
 

@@ -7,8 +7,6 @@ so they go through exactly the same scorer.
 
 from __future__ import annotations
 
-import json
-import os
 from collections import Counter
 from collections.abc import Sequence
 from itertools import permutations, product
@@ -16,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tacreasoner.jsonl import write_jsonl
 from tacreasoner.tasks.answers import render_answer
 from tacreasoner.tasks.schema import CONTACT_STATES, ORDINALS, QAItem
 from tacreasoner.tasks.vocab import get_vocabulary
@@ -85,11 +84,4 @@ def predict(items: Sequence[QAItem], kind: str, *, train: Sequence[QAItem] = (),
 
 
 def write_predictions(records: Sequence[dict], path: str | Path) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    with tmp.open("w") as fh:
-        for rec in records:
-            fh.write(json.dumps(rec, ensure_ascii=False) + "\n")
-    os.replace(tmp, path)
-    return path
+    return write_jsonl(path, records)

@@ -32,6 +32,7 @@ from tacreasoner.evaluate.stats import (
     paper_average,
     wilson_interval,
 )
+from tacreasoner.jsonl import iter_jsonl, write_jsonl
 from tacreasoner.tasks.extract import MODES, Mode
 from tacreasoner.tasks.schema import CONTACT_STATES, TASKS, QAItem
 from tacreasoner.tasks.scoring import check_gold, score_predictions
@@ -58,22 +59,6 @@ _RECORD_KEYS = ("id", "task", "correct", "parse_failed")
 # -------------------------------------------------------------------------------------------------- files
 
 
-def _read_jsonl(path: str | Path) -> Iterable[tuple[int, dict]]:
-    """(line number, object) per non-blank line; ValueError naming path:lineno for anything else."""
-    path = Path(path)
-    with path.open(encoding="utf-8") as f:
-        for lineno, line in enumerate(f, start=1):
-            if not line.strip():
-                continue
-            try:
-                obj = json.loads(line)
-            except json.JSONDecodeError as e:
-                raise ValueError(f"{path}:{lineno}: not valid JSON ({e.msg} at column {e.colno})") from None
-            if not isinstance(obj, dict):
-                raise ValueError(f"{path}:{lineno}: expected a JSON object, got {type(obj).__name__}")
-            yield lineno, obj
-
-
 def load_predictions(path: str | Path) -> dict[str, dict]:
     """Prediction records by item id, in file order; each keeps its extra keys.
 
@@ -81,7 +66,7 @@ def load_predictions(path: str | Path) -> dict[str, dict]:
     """
     out: dict[str, dict] = {}
     first_line: dict[str, int] = {}
-    for lineno, obj in _read_jsonl(path):
+    for lineno, obj in iter_jsonl(path):
         for key in ("id", "prediction"):
             if key not in obj:
                 raise ValueError(f"{path}:{lineno}: missing field {key!r} (line has {sorted(obj)})")
@@ -98,18 +83,12 @@ def load_predictions(path: str | Path) -> dict[str, dict]:
 def load_scored(path: str | Path) -> list[dict]:
     """Per-item score records written by :func:`evaluate` (``scored/<run>.jsonl``)."""
     records = []
-    for lineno, obj in _read_jsonl(path):
+    for lineno, obj in iter_jsonl(path):
         missing = [k for k in _RECORD_KEYS if k not in obj]
         if missing:
             raise ValueError(f"{path}:{lineno}: score record lacks fields {missing}")
         records.append(obj)
     return records
-
-
-def _write_jsonl(path: Path, records: Iterable[dict]) -> None:
-    with path.open("w", encoding="utf-8") as f:
-        for r in records:
-            f.write(json.dumps(r, ensure_ascii=False) + "\n")
 
 
 # ------------------------------------------------------------------------------------------------ summary
@@ -399,7 +378,7 @@ def evaluate(items: Sequence[QAItem], prediction_paths: Sequence[str | Path], mo
                 r["extra"] = kept
         unknown[name] = len(set(preds) - item_ids)
         scored = out / "scored" / f"{name}.jsonl"
-        _write_jsonl(scored, records)
+        write_jsonl(scored, records)
         scored_files[f"scored:{name}"] = str(scored)
         runs[name] = records
     report = summarize(runs, mode)

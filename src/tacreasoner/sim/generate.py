@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from tacreasoner.data.video import write_video
+from tacreasoner.jsonl import iter_jsonl
 from tacreasoner.sim.materials import Material, build_object_set, derive_labels
 from tacreasoner.sim.mechanics import ContactTrajectory, simulate_contact
 from tacreasoner.sim.protocol import ACTIONS, make_protocol
@@ -230,13 +231,4 @@ def read_manifest(path: str | Path) -> list[dict]:
         path = path / MANIFEST
     if not path.exists():
         raise FileNotFoundError(f"{path}: no simulator manifest here (run `tacreasoner simulate` first)")
-    records = []
-    with path.open() as fh:
-        for lineno, line in enumerate(fh, 1):
-            if not line.strip():
-                continue
-            try:
-                records.append(json.loads(line))
-            except json.JSONDecodeError as exc:
-                raise ValueError(f"{path}:{lineno}: not valid JSON ({exc.msg})") from None
-    return records
+    return [record for _, record in iter_jsonl(path)]

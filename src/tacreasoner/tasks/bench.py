@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 import re
 from collections import Counter
 from collections.abc import Sequence
@@ -21,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from tacreasoner.data.clip import TactileClip
+from tacreasoner.jsonl import atomic_write_text
 from tacreasoner.tasks.schema import SPLITS, TFA_TASKS, QAItem
 from tacreasoner.tasks.vocab import get_vocabulary
 
@@ -212,9 +212,7 @@ def build_bench(source: str, data: str | Path, out_dir: str | Path, *, seed: int
         "objects": objects,
         "notes": notes,
     }
-    tmp = out / (BENCH_INFO + ".tmp")
-    tmp.write_text(json.dumps(info, indent=2))
-    os.replace(tmp, out / BENCH_INFO)
+    atomic_write_text(out / BENCH_INFO, json.dumps(info, indent=2))
     return BenchSummary(out, source, counts, objects, notes)
 
 

@@ -23,13 +23,12 @@ import, paths under it are made relative to it. A video without a path is writte
 from __future__ import annotations
 
 import json
-import os
 import re
-import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from tacreasoner.jsonl import atomic_write_text, iter_jsonl
 from tacreasoner.tasks.answers import render_answer
 from tacreasoner.tasks.schema import PLACEHOLDER, QAItem, VideoRef
 from tacreasoner.tasks.vocab import get_vocabulary
@@ -53,23 +52,6 @@ _THINK_TAG = re.compile(r"<think>.*?</think>", re.DOTALL)
 
 
 # ------------------------------------------------------------------------------------------ helpers
-
-
-def _atomic_write(path: str | Path, text: str) -> Path:
-    """Write via a temporary file in the same folder and rename, so readers never see half a file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
 
 
 def _type_name(t: type | tuple[type, ...]) -> str:
@@ -129,7 +111,7 @@ def parse_item(data: object, *, check_answers: bool = True) -> QAItem:
 
 def write_jsonl(items: Iterable[QAItem], path: str | Path) -> Path:
     """One item per line (UTF-8), written atomically."""
-    return _atomic_write(path, "".join(item.to_json() + "\n" for item in items))
+    return atomic_write_text(path, "".join(item.to_json() + "\n" for item in items))
 
 
 def read_jsonl(path: str | Path, *, check_answers: bool = True) -> list[QAItem]:
@@ -137,23 +119,16 @@ def read_jsonl(path: str | Path, *, check_answers: bool = True) -> list[QAItem]:
     path = Path(path)
     items: list[QAItem] = []
     first_line: dict[str, int] = {}
-    with path.open(encoding="utf-8") as f:
-        for lineno, line in enumerate(f, 1):
-            if not line.strip():
-                continue
-            try:
-                data = json.loads(line)
-            except json.JSONDecodeError as e:
-                raise ValueError(f"{path}:{lineno}: bad JSON: {e.msg} (column {e.colno})") from None
-            try:
-                item = parse_item(data, check_answers=check_answers)
-            except (ValueError, TypeError) as e:
-                raise ValueError(f"{path}:{lineno}: {e}") from None
-            if item.id in first_line:
-                first = first_line[item.id]
-                raise ValueError(f"{path}:{lineno}: duplicate item id {item.id!r} (first on line {first})")
-            first_line[item.id] = lineno
-            items.append(item)
+    for lineno, data in iter_jsonl(path):
+        try:
+            item = parse_item(data, check_answers=check_answers)
+        except (ValueError, TypeError) as e:
+            raise ValueError(f"{path}:{lineno}: {e}") from None
+        if item.id in first_line:
+            first = first_line[item.id]
+            raise ValueError(f"{path}:{lineno}: duplicate item id {item.id!r} (first on line {first})")
+        first_line[item.id] = lineno
+        items.append(item)
     return items
 
 
@@ -213,7 +188,7 @@ def to_llava(items: Iterable[QAItem], video_root: str | Path | None = None, *,
 
 
 def _write_json(records: list[dict], path: str | Path) -> Path:
-    return _atomic_write(path, json.dumps(records, ensure_ascii=False, indent=2) + "\n")
+    return atomic_write_text(path, json.dumps(records, ensure_ascii=False, indent=2) + "\n")
 
 
 def write_vtv_json(items: Iterable[QAItem], path: str | Path, video_root: str | Path | None = None, *,
