@@ -94,3 +94,32 @@ def test_planted_leak_is_refused(small_sim_dataset: Path, tmp_path: Path, monkey
     with pytest.raises(splits.LeakageError):
         bench_mod.build_bench("sim", small_sim_dataset, tmp_path / "b", heldout_sensor="digit")
     assert not (tmp_path / "b" / BENCH_INFO).exists()
+
+
+def test_vtv150k_layout_builds_a_benchmark(tmp_path: Path) -> None:
+    """Flat ``<object>_<k>.mp4`` videos + a rank table → a benchmark; unranked objects are reported."""
+    import numpy as np
+
+    from tacreasoner.data.video import write_video
+    from tacreasoner.tasks.formats import read_vtv_json, write_vtv_json
+
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    rng = np.random.default_rng(0)
+    ranks = {}
+    for i in range(12):
+        obj = f"thing_{i}_x"  # underscores inside object names
+        for k in range(2):
+            write_video(videos / f"{obj}_{k}.mp4", rng.integers(0, 255, (6, 16, 16, 3), dtype=np.uint8), 25)
+        if i < 11:
+            ranks[obj] = {a: int(rng.integers(3)) for a in ("hardness", "protrusion", "elasticity", "friction")}
+    table = tmp_path / "ranks.json"
+    table.write_text(json.dumps(ranks))
+    summary = build_bench("vtv150k", videos, tmp_path / "bench", ranks=table, seed=0)
+    assert any("2 VTV-150K clips without ranks" in n for n in summary.notes)
+    info, test = load_bench(tmp_path / "bench", "test")
+    assert info["vocabulary"] == "vtv150k" and "thing_11_x" not in info["splits"]
+    assert {"TFA-hardness", "TFA-friction", "TFA-combined"} <= {i.task for i in test}
+    write_vtv_json(test, tmp_path / "vtv.json")
+    back = read_vtv_json(tmp_path / "vtv.json")
+    assert [(i.question, i.answer, i.task) for i in back] == [(i.question, i.answer, i.task) for i in test]
