@@ -123,3 +123,15 @@ def test_vtv150k_layout_builds_a_benchmark(tmp_path: Path) -> None:
     write_vtv_json(test, tmp_path / "vtv.json")
     back = read_vtv_json(tmp_path / "vtv.json")
     assert [(i.question, i.answer, i.task) for i in back] == [(i.question, i.answer, i.task) for i in test]
+
+
+def test_relative_data_path_gives_paths_relative_to_video_root(
+        small_sim_dataset: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import os
+
+    monkeypatch.chdir(tmp_path)
+    rel = Path(os.path.relpath(small_sim_dataset, tmp_path))
+    build_bench("sim", rel, tmp_path / "b", heldout_sensor="digit")
+    info, items = load_bench(tmp_path / "b", "train")
+    root = Path(info["video_root"])
+    assert all((root / ref.path).exists() for i in items for ref in i.videos)

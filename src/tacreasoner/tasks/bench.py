@@ -107,9 +107,10 @@ def _relative_paths(items: list[QAItem], root: Path) -> None:
     for item in items:
         refs = []
         for ref in item.videos:
-            path = Path(ref.path) if ref.path else None
-            if path is not None and path.is_absolute() and path.resolve().is_relative_to(root):
-                ref = dataclasses.replace(ref, path=path.resolve().relative_to(root).as_posix())
+            # Readers give paths as they found them (relative to the working directory or absolute).
+            path = Path(ref.path).resolve() if ref.path else None
+            if path is not None and path.is_relative_to(root):
+                ref = dataclasses.replace(ref, path=path.relative_to(root).as_posix())
             refs.append(ref)
         item.videos = refs
 

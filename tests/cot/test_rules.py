@@ -1,0 +1,182 @@
+"""The offline rule-based teacher: right answers, every stage covered, real cue values, varied and consistent."""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import re
+import shutil
+from collections import Counter, defaultdict
+from pathlib import Path
+
+import pytest
+from touchcot_bench import prepared, variants
+
+from tacreasoner.cot import cuetext
+from tacreasoner.cot.prompts import build_prompt
+from tacreasoner.cot.rules import BANK_FILE, RulesBankError, RulesTeacher, load_bank
+from tacreasoner.cot.schema import CoTJob
+from tacreasoner.tasks.schema import CONTACT_STATES
+from tacreasoner.tasks.scoring import score_item
+from tacreasoner.tasks.vocab import get_vocabulary
+
+STAGE_WORDS = {"press": r"press", "hold": r"hold|held", "slide": r"slid", "rotate": r"rotat", "release": r"releas"}
+
+
+@pytest.fixture(scope="module")
+def jobs(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> list[CoTJob]:
+    return variants(prepared(small_sim_dataset, tmp_path_factory.mktemp("touchcot"))[1], 200)
+
+
+@pytest.fixture(scope="module")
+def teacher() -> RulesTeacher:
+    return RulesTeacher(seed=0)
+
+
+@pytest.fixture(scope="module")
+def replies(jobs: list[CoTJob], teacher: RulesTeacher) -> list[str]:
+    return [teacher.generate_sync(job, build_prompt(job)).text for job in jobs]
+
+
+def _think(text: str) -> str:
+    m = re.fullmatch(r"<think>(.+)</think><answer>(.+)</answer>", text, re.DOTALL)
+    assert m, f"not <think>…</think><answer>…</answer>: {text[:80]!r}"
+    return m.group(1)
+
+
+def test_every_reply_is_well_formed_and_right(jobs: list[CoTJob], replies: list[str]) -> None:
+    assert len({j.item.task for j in jobs}) >= 9
+    for job, text in zip(jobs, replies, strict=True):
+        _think(text)
+        assert text.endswith(f"<answer>{job.item.answer}</answer>")
+        assert score_item(job.item, text, "strict").correct, f"{job.item.id}: {text[-200:]}"
+
+
+def test_every_required_stage_is_mentioned(jobs: list[CoTJob], replies: list[str]) -> None:
+    for job, text in zip(jobs, replies, strict=True):
+        think = _think(text).lower()
+        for stage in job.stages:
+            assert re.search(STAGE_WORDS[stage], think), f"{job.item.id}: stage {stage!r} missing in {think!r}"
+
+
+def test_reasoning_quotes_measured_cue_values(jobs: list[CoTJob], replies: list[str]) -> None:
+    for job, text in zip(jobs, replies, strict=True):
+        think = _think(text)
+        quoted = {value for n, video in enumerate(job.videos, 1) for name, value in cuetext.cue_slots(video, n).items()
+                  if name in cuetext.CUE_NAMES and any(ch.isdigit() for ch in value)}
+        found = [v for v in quoted if v in think]
+        assert len(found) >= min(2, len(job.stages)), f"{job.item.id}: no cue value quoted in {think!r}"
+        if len(job.videos) > 1:
+            assert all(f"Video {k}" in think for k in range(1, len(job.videos) + 1)), f"{job.item.id}: {think!r}"
+
+
+def test_reasoning_never_contradicts_the_answer(jobs: list[CoTJob], replies: list[str]) -> None:
+    for job, text in zip(jobs, replies, strict=True):
+        item, think = job.item, _think(text)
+        low = think.lower()
+        if item.task.startswith("TFA-") and item.task != "TFA-combined":
+            attr = get_vocabulary(item.vocabulary)[item.task.removeprefix("TFA-")]
+            for phrase in attr.levels:
+                if phrase != item.answer:
+                    assert not re.search(rf"\b{re.escape(phrase)}\b", low), f"{item.id}: says {phrase!r}"
+        if item.task == "RFOR":
+            other = "fake" if item.gold["real"] else "real"
+            assert not re.search(rf"\b{other}\b", low), f"{item.id}: says {other!r}"
+        if item.task == "OCSE":
+            for state in CONTACT_STATES:
+                if state != item.answer:
+                    assert state not in low, f"{item.id}: says {state!r}"
+        last = re.split(r"(?<=[.!?])\s+", think.strip())[-1]
+        assert score_item(item, f"<answer>{last}</answer>", "lenient").correct, f"{item.id}: conclusion {last!r}"
+
+
+def test_conclusions_read_by_the_touchcot_filter_agree(jobs: list[CoTJob], replies: list[str]) -> None:
+    cot_filter = pytest.importorskip("tacreasoner.cot.filter")
+    if not hasattr(cot_filter, "conclusion"):
+        pytest.skip("filter has no conclusion reader")
+    for job, text in zip(jobs, replies, strict=True):
+        think, answer = _think(text), job.item.answer
+        read = cot_filter.conclusion(job.item, think)
+        assert read is not None, f"{job.item.id}: no readable conclusion in {think[-160:]!r}"
+        gold = score_item(job.item, f"<answer>{answer}</answer>", "strict").parsed
+        assert read[1] == gold or (isinstance(gold, dict) and all(
+            v is None or v == gold[k] for k, v in read[1].items())), f"{job.item.id}: filter read {read}"
+
+
+def test_think_texts_are_diverse(jobs: list[CoTJob], replies: list[str], teacher: RulesTeacher) -> None:
+    thinks = [_think(t) for t in replies]
+    assert len(set(thinks)) / len(thinks) >= 0.9
+    same_task = variants(jobs, 200, task="TFA-hardness")  # ~16 distinct clips, 200 items
+    hardness = [teacher.compose(j).think for j in same_task]
+    assert len(set(hardness)) / len(hardness) >= 0.9
+
+
+def test_no_sentence_template_dominates_a_stage(jobs: list[CoTJob], teacher: RulesTeacher) -> None:
+    for task in ("TFA-hardness", "SFD", "RFOR"):
+        usage: dict[str, Counter] = defaultdict(Counter)
+        for job in variants(jobs, 200, task=task):
+            for tag, template in teacher.compose(job).templates:
+                if tag in job.stages:  # the sentence that carries the stage
+                    usage[tag][template] += 1
+        assert usage, task
+        for stage, counts in usage.items():
+            share = max(counts.values()) / sum(counts.values())
+            assert share <= 0.4, f"{task}/{stage}: one template used {share:.0%} of the time ({counts.most_common(2)})"
+
+
+def test_deterministic_for_seed_and_key(jobs: list[CoTJob], replies: list[str]) -> None:
+    again = RulesTeacher(seed=0)
+    assert [again.generate_sync(j).text for j in jobs[:20]] == replies[:20]
+    other = RulesTeacher(seed=1)
+    assert sum(other.generate_sync(j).text != t for j, t in zip(jobs[:20], replies[:20], strict=True)) >= 18
+    rekeyed = dataclasses.replace(jobs[0], key="another-key")
+    assert again.generate_sync(rekeyed).text != replies[0]
+
+
+def test_async_generate_and_identity(jobs: list[CoTJob], replies: list[str], teacher: RulesTeacher) -> None:
+    reply = asyncio.run(teacher.generate(jobs[3], build_prompt(jobs[3])))
+    assert reply.text == replies[3] and reply.model == "rules-v1" and reply.reasoning is None
+    assert (teacher.name, teacher.model) == ("rules", "rules-v1")
+
+
+def test_tsa_is_refused(jobs: list[CoTJob], teacher: RulesTeacher) -> None:
+    job = next(j for j in jobs if j.item.task == "SFD")
+    tsa = dataclasses.replace(job.item, task="TSA", answer="A",
+                              gold={"letter": "A", "scenario": "scrape_ice", "needs": {"hardness": "high"}})
+    with pytest.raises(ValueError, match="zero-shot"):
+        teacher.generate_sync(CoTJob(tsa, job.stages, job.videos))
+
+
+# ------------------------------------------------------------------------------------------- the bank
+
+
+def _bank_copy(tmp_path: Path, old: str, new: str) -> tuple[Path, int]:
+    path = tmp_path / "bank.yaml"
+    shutil.copy(BANK_FILE, path)
+    text = path.read_text()
+    assert old in text
+    line = text[: text.index(old)].count("\n") + 1
+    path.write_text(text.replace(old, new, 1))
+    return path, line
+
+
+def test_packaged_bank_loads() -> None:
+    bank = load_bank()
+    assert bank.version == "rules-v1"
+
+
+def test_bank_errors_name_file_and_line(tmp_path: Path) -> None:
+    path, line = _bank_copy(tmp_path, "contact area grows to {press_area}", "contact area grows to {press_size}")
+    pattern = rf"bank.yaml:{line}: observe.press.0.0: unknown slot\(s\) \{{press_size\}}"
+    with pytest.raises(RulesBankError, match=pattern):
+        load_bank(path)
+    path, line = _bank_copy(tmp_path, "    release: [[residual, -1]", "    release: [[residue, -1]")
+    with pytest.raises(RulesBankError, match=rf"bank.yaml:{line}: evidence.hardness.release.0"):
+        load_bank(path)
+    path, _ = _bank_copy(tmp_path, '  - " — {reading}"\n  - "; {reading}"\n  - ", a sign',
+                         '  - " — {reading}"\n  - "; nothing"\n  - ", a sign')
+    with pytest.raises(RulesBankError, match=r"connectors.1: .* must contain \{reading\}"):
+        load_bank(path)
+    path, _ = _bank_copy(tmp_path, "version: rules-v1", "version: rules-v1\nextras: []")
+    with pytest.raises(RulesBankError, match=r"unknown section\(s\) \['extras'\]"):
+        load_bank(path)
