@@ -20,6 +20,8 @@ from typing import Any, Protocol, runtime_checkable
 from urllib.parse import urlparse
 
 from tacreasoner.cot.schema import CoTJob, Prompt, TeacherReply
+from tacreasoner.fields import reject_unknown_fields
+from tacreasoner.yamlfile import read_yaml
 
 BACKENDS = ("openai", "hf", "rules")
 DEFAULT_KEY_ENV = "OPENAI_API_KEY"
@@ -115,10 +117,7 @@ class TeacherConfig:
     def from_dict(cls, data: dict[str, Any]) -> TeacherConfig:
         if not isinstance(data, dict):
             raise ValueError(f"teacher config must be a mapping, got {type(data).__name__}")
-        known = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(data) - known)
-        if unknown:
-            raise ValueError(f"teacher: unknown config keys {unknown}; known: {', '.join(sorted(known))}")
+        reject_unknown_fields(cls, data, "teacher: unknown config keys", known="sorted")
         return cls(**data)
 
     def to_dict(self) -> dict[str, Any]:
@@ -139,17 +138,12 @@ def _check_int(name: str, value: Any, *, low: int) -> None:
 
 def load_teacher_config(path: str | Path) -> TeacherConfig:
     """Read a teacher config from YAML: the mapping itself, or under a top-level ``teacher:`` key."""
-    from tacreasoner.tasks._yaml import LINE_KEY, load_yaml
-
     path = Path(path)
-    data = load_yaml(path)
-    if isinstance(data, dict) and set(data) - {LINE_KEY} == {"teacher"}:
+    data, _ = read_yaml(path)
+    if isinstance(data, dict) and set(data) == {"teacher"}:
         data = data["teacher"]
     if not isinstance(data, dict):
         raise ValueError(f"{path}: a teacher config must be a mapping, got {type(data).__name__}")
-    data = {k: v for k, v in data.items() if k != LINE_KEY}
-    if isinstance(data.get("extra"), dict):
-        data["extra"] = {k: v for k, v in data["extra"].items() if k != LINE_KEY}
     try:
         return TeacherConfig.from_dict(data)
     except (TypeError, ValueError) as exc:

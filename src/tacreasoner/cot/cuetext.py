@@ -9,7 +9,7 @@ known slots lets templates be validated when they are loaded, not when a job fir
 from __future__ import annotations
 
 import string
-from collections.abc import Mapping
+from collections.abc import Mapping, Set
 
 from tacreasoner.cot.schema import STAGES, VideoCues
 
@@ -98,3 +98,12 @@ def render(template: str, values: Mapping[str, str], where: str = "template") ->
 def slot_names(text: str) -> set[str]:
     """The ``{slot}`` names of a template (ValueError on malformed braces)."""
     return {name for _, name, _, _ in string.Formatter().parse(text) if name is not None}
+
+
+def slot_problems(text: str, allowed: Set[str], required: Set[str]) -> tuple[list[str], list[str]]:
+    """``(unknown, missing)``: the template's slots not in ``allowed`` and the ``required`` ones it lacks, sorted.
+
+    Both empty means the template is fine; malformed braces raise ValueError (callers add ``file:line``).
+    """
+    slots = slot_names(text)
+    return sorted(slots - allowed), sorted(required - slots)

@@ -35,7 +35,6 @@ to ``sample.meta["filter"]`` for the audit page.
 
 from __future__ import annotations
 
-import dataclasses
 import re
 from collections import Counter, defaultdict
 from collections.abc import Iterable, Mapping, Sequence
@@ -45,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from tacreasoner.cot.schema import CoTSample
+from tacreasoner.fields import reject_unknown_fields
 from tacreasoner.tasks.extract import extract_answer, split_reasoning
 from tacreasoner.tasks.schema import QAItem
 from tacreasoner.tasks.scoring import score_item
@@ -98,10 +98,7 @@ class FilterConfig:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> FilterConfig:
         """From a YAML/JSON mapping; unknown keys are an error naming them and the known ones."""
-        known = [f.name for f in dataclasses.fields(cls)]
-        unknown = sorted(set(data) - set(known))
-        if unknown:
-            raise ValueError(f"FilterConfig: unknown key(s) {unknown}; known: {', '.join(known)}")
+        reject_unknown_fields(cls, data, "FilterConfig: unknown key(s)", known="declared")
         return cls(**data)
 
 

@@ -19,11 +19,11 @@ from pathlib import Path
 from typing import Any
 
 from tacreasoner.cot import cuetext
-from tacreasoner.cot._yamlfile import read_yaml
 from tacreasoner.cot.schema import STAGES, CoTJob, Prompt, VideoCues
 from tacreasoner.tasks.answers import COMBINED_SEP
 from tacreasoner.tasks.schema import CONTACT_STATES, ORDINALS, PLACEHOLDER, TASKS, QAItem
 from tacreasoner.tasks.vocab import get_vocabulary
+from tacreasoner.yamlfile import read_yaml
 
 __all__ = [
     "PROMPT_DIR",
@@ -126,14 +126,12 @@ def _check_text(value: object, where: str, allowed: frozenset[str], required: fr
     if not isinstance(value, str) or not value.strip():
         raise PromptTemplateError(f"{where}: must be a non-empty string")
     try:
-        slots = cuetext.slot_names(value)
+        unknown, missing = cuetext.slot_problems(value, allowed, required)
     except ValueError as e:
         raise PromptTemplateError(f"{where}: malformed template ({e}); write literal braces as {{{{ }}}}") from None
-    unknown = sorted(slots - allowed)
     if unknown:
         raise PromptTemplateError(f"{where}: unknown slot(s) {', '.join('{' + s + '}' for s in unknown)}; "
                                   f"allowed: {', '.join(sorted(allowed)) or 'none'}")
-    missing = sorted(required - slots)
     if missing:
         raise PromptTemplateError(f"{where}: must contain slot(s) {', '.join('{' + s + '}' for s in missing)}")
     return value

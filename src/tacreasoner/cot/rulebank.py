@@ -13,9 +13,9 @@ from pathlib import Path
 from typing import Any
 
 from tacreasoner.cot import cuetext
-from tacreasoner.cot._yamlfile import line_of, read_yaml
 from tacreasoner.cot.schema import STAGES
 from tacreasoner.tasks.schema import CONTACT_STATES
+from tacreasoner.yamlfile import line_of, read_yaml
 
 __all__ = ["BANK_FILE", "STAGE_KEYS", "RulesBank", "RulesBankError", "load_bank"]
 
@@ -83,7 +83,7 @@ class RulesBank:
         return str(self.data["version"])
 
     def where(self, *at: str | int) -> str:
-        return f"{self.file}:{line_of(dict(self.lines), tuple(at))}: {'.'.join(str(a) for a in at)}"
+        return f"{self.file}:{line_of(self.lines, tuple(at))}: {'.'.join(str(a) for a in at)}"
 
 
 def load_bank(path: str | Path | None = None) -> RulesBank:
@@ -128,14 +128,12 @@ def _check_strings(bank: RulesBank, node: Any, at: tuple, allowed: frozenset[str
             _check_strings(bank, value, (*at, i), allowed, required)
     elif isinstance(node, str):
         try:
-            slots = cuetext.slot_names(node)
+            bad, lacking = cuetext.slot_problems(node, allowed, required)
         except ValueError as e:
             raise RulesBankError(f"{bank.where(*at)}: malformed template ({e})") from None
-        bad = sorted(slots - allowed)
         if bad:
             raise RulesBankError(f"{bank.where(*at)}: unknown slot(s) {', '.join('{' + s + '}' for s in bad)} "
                                  f"in {node!r}; allowed here: {', '.join(sorted(allowed)) or 'none'}")
-        lacking = sorted(required - slots)
         if lacking:
             raise RulesBankError(f"{bank.where(*at)}: {node!r} must contain "
                                  f"{', '.join('{' + s + '}' for s in lacking)}")

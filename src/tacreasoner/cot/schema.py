@@ -16,6 +16,7 @@ import hashlib
 import json
 from dataclasses import dataclass, field
 
+from tacreasoner.fields import reject_unknown_fields
 from tacreasoner.tasks.schema import QAItem
 
 STAGES = ("press", "hold", "slide", "rotate", "release")
@@ -109,10 +110,7 @@ class CoTSample:
 
     @classmethod
     def from_dict(cls, data: dict) -> CoTSample:
-        known = {f.name for f in dataclasses.fields(cls)}
-        unknown = set(data) - known
-        if unknown:
-            raise ValueError(f"unknown CoT sample fields {sorted(unknown)}")
+        reject_unknown_fields(cls, data, "unknown CoT sample fields")
         return cls(**data)
 
 

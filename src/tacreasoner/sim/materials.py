@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tacreasoner.fields import reject_unknown_fields
+
 GEL_MODULUS_MPA = 1.0
 """Effective plane-strain modulus of the sensor elastomer: objects far stiffer than this look rigid."""
 
@@ -72,10 +74,7 @@ class Material:
 
     @classmethod
     def from_dict(cls, data: dict) -> Material:
-        known = {f.name for f in dataclasses.fields(cls)}
-        unknown = set(data) - known
-        if unknown:
-            raise ValueError(f"unknown material fields: {sorted(unknown)}")
+        reject_unknown_fields(cls, data, "unknown material fields:")
         return cls(**data)
 
 

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
-from tacreasoner.tasks import _yaml
 from tacreasoner.tasks.vocab import VOCABULARIES, get_vocabulary
+from tacreasoner.yamlfile import line_of, read_yaml
 
 SCENARIO_FILE = Path(__file__).parent / "scenarios.yaml"
 SCENARIO_FIELDS = frozenset({"id", "text", "needs"})
@@ -43,11 +43,11 @@ def _all_attributes() -> set[str]:
     return {a for vocab in VOCABULARIES.values() for a in vocab}
 
 
-def _parse_scenario(path: Path, entry: object) -> Scenario:
-    where = _yaml.where(path, entry)
-    if not isinstance(entry, dict):
-        raise ValueError(f"{where}: each scenario must be a mapping with id, text and needs")
-    data = _yaml.fields(entry)
+def _parse_scenario(path: Path, data: object, line: int) -> Scenario:
+    """One entry of the bank, which starts at ``line``."""
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: each scenario must be a mapping with id, text and needs")
+    where = f"{path}:{line}"
     unknown = set(data) - SCENARIO_FIELDS
     if unknown:
         raise ValueError(f"{where}: unknown field(s) {sorted(unknown)}; allowed: {sorted(SCENARIO_FIELDS)}")
@@ -56,16 +56,15 @@ def _parse_scenario(path: Path, entry: object) -> Scenario:
             raise ValueError(f"{where}: field {name!r} must be a non-empty string")
     where = f"{where}: scenario {data['id']!r}"
     needs = data.get("needs")
-    if not isinstance(needs, dict) or not _yaml.fields(needs):
+    if not isinstance(needs, dict) or not needs:
         raise ValueError(f"{where}: field 'needs' must map attributes to 'high' or 'low'")
-    needs = _yaml.fields(needs)
     known = _all_attributes()
     for attribute, level in needs.items():
         if attribute not in known:
             raise ValueError(f"{where}: unknown attribute {attribute!r} in needs; known: {sorted(known)}")
         if level not in NEED_LEVELS:
             raise ValueError(f"{where}: need for {attribute!r} must be 'high' or 'low', got {level!r}")
-    return Scenario(data["id"], data["text"].strip(), dict(needs), str(path), entry[_yaml.LINE_KEY])
+    return Scenario(data["id"], data["text"].strip(), dict(needs), str(path), line)
 
 
 def load_scenarios(path: str | Path | None = None) -> tuple[Scenario, ...]:
@@ -79,16 +78,16 @@ def _default_scenarios() -> tuple[Scenario, ...]:
 
 
 def _read_scenarios(path: Path) -> tuple[Scenario, ...]:
-    data = _yaml.load_yaml(path)
+    data, lines = read_yaml(path)
     if not isinstance(data, dict) or not isinstance(data.get("scenarios"), list):
         raise ValueError(f"{path}: top level must be a mapping with a 'scenarios' list")
-    extra = set(_yaml.fields(data)) - {"scenarios"}
+    extra = set(data) - {"scenarios"}
     if extra:
         raise ValueError(f"{path}: unknown top-level key(s) {sorted(extra)}")
     out: list[Scenario] = []
     seen: dict[str, Scenario] = {}
-    for entry in data["scenarios"]:
-        s = _parse_scenario(path, entry)
+    for i, entry in enumerate(data["scenarios"]):
+        s = _parse_scenario(path, entry, line_of(lines, ("scenarios", i)))
         if s.id in seen:
             raise ValueError(f"{path}:{s.line}: duplicate scenario id {s.id!r} (first at line {seen[s.id].line})")
         seen[s.id] = s

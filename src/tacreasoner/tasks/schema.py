@@ -30,6 +30,8 @@ import dataclasses
 import json
 from dataclasses import dataclass, field
 
+from tacreasoner.fields import reject_unknown_fields
+
 PLACEHOLDER = "<tactile>"
 TFA_TASKS = ("TFA-hardness", "TFA-protrusion", "TFA-elasticity", "TFA-friction", "TFA-roughness",
              "TFA-bumpiness", "TFA-combined")
@@ -97,10 +99,7 @@ class QAItem:
 
     @classmethod
     def from_dict(cls, data: dict) -> QAItem:
-        known = {f.name for f in dataclasses.fields(cls)}
-        unknown = set(data) - known
-        if unknown:
-            raise ValueError(f"unknown QA item fields {sorted(unknown)}")
+        reject_unknown_fields(cls, data, "unknown QA item fields")
         missing = {"id", "task", "question", "answer", "gold", "videos", "objects"} - set(data)
         if missing:
             raise ValueError(f"missing QA item fields {sorted(missing)}")

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
-from tacreasoner.tasks import _yaml
 from tacreasoner.tasks.schema import PLACEHOLDER
+from tacreasoner.yamlfile import line_of, read_yaml
 
 TEMPLATE_DIR = Path(__file__).parent / "templates"
 TEMPLATE_FIELDS = frozenset({"id", "text"})
@@ -103,35 +103,35 @@ def _check_slots(text: str, kind: TemplateKind, where: str) -> None:
                             f"(one per video)")
 
 
-def _parse_entry(path: Path, kind_name: str, entry: object) -> Template:
-    where = _yaml.where(path, entry)
-    if not isinstance(entry, dict):
-        raise TemplateError(f"{where}: entries under {kind_name!r} must be mappings with 'id' and 'text'")
-    data = _yaml.fields(entry)
+def _parse_entry(path: Path, kind_name: str, data: object, line: int) -> Template:
+    """One entry under ``kind_name``, which starts at ``line``."""
+    if not isinstance(data, dict):
+        raise TemplateError(f"{path}: entries under {kind_name!r} must be mappings with 'id' and 'text'")
+    where = f"{path}:{line}"
     unknown = set(data) - TEMPLATE_FIELDS
     if unknown:
         raise TemplateError(f"{where}: unknown field(s) {sorted(unknown)}; allowed: {sorted(TEMPLATE_FIELDS)}")
     for name in sorted(TEMPLATE_FIELDS):
         if not isinstance(data.get(name), str) or not data[name].strip():
             raise TemplateError(f"{where}: field {name!r} must be a non-empty string")
-    template = Template(data["id"], kind_name, data["text"].strip(), str(path), entry[_yaml.LINE_KEY])
+    template = Template(data["id"], kind_name, data["text"].strip(), str(path), line)
     _check_slots(template.text, KINDS[kind_name], template.where)
     return template
 
 
 def parse_template_file(path: Path) -> list[Template]:
     """All templates of one YAML file, validated."""
-    data = _yaml.load_yaml(path)
+    data, lines = read_yaml(path)
     if not isinstance(data, dict):
         raise TemplateError(f"{path}: top level must map template kinds to lists of templates")
     out = []
-    for kind_name, entries in _yaml.fields(data).items():
+    for kind_name, entries in data.items():
         if kind_name not in KINDS:
-            raise TemplateError(f"{_yaml.where(path, data)}: unknown template kind {kind_name!r}; "
+            raise TemplateError(f"{path}:{line_of(lines, ())}: unknown template kind {kind_name!r}; "
                                 f"known: {', '.join(KINDS)}")
         if not isinstance(entries, list) or not entries:
             raise TemplateError(f"{path}: {kind_name!r} must be a non-empty list of templates")
-        out.extend(_parse_entry(path, kind_name, e) for e in entries)
+        out.extend(_parse_entry(path, kind_name, e, line_of(lines, (kind_name, i))) for i, e in enumerate(entries))
     return out
 
 
