@@ -79,3 +79,20 @@ def test_bad_configuration_is_one_line(bench: Path, tmp_path: Path, args: list[s
     assert result.exit_code == 2, result.output
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], result.stderr
+
+
+def test_teacher_failures_are_reported_with_their_reason(bench: Path, tmp_path: Path) -> None:
+    """A wrong API key must not look like success: the run says why the calls failed."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent / "cot"))
+    from fake_openai_server import FakeOpenAIServer
+
+    with FakeOpenAIServer(expected_key="sk-right") as server:
+        cfg = tmp_path / "t.yaml"
+        cfg.write_text(f"teacher:\n  backend: openai\n  model: fake\n  base_url: {server.base_url}\n"
+                       "  api_key_env: TEST_TEACHER_KEY\n  max_retries: 0\n")
+        result = invoke("build-cot", "--bench", bench, "--out", tmp_path / "o", "--teacher-config", cfg,
+                        "--limit", "3", env={"TEST_TEACHER_KEY": "sk-wrong"})
+    assert result.exit_code == 1, result.output  # incomplete run: non-zero so scripts notice
+    assert "3 failed" in result.output and "401" in result.output

@@ -9,6 +9,7 @@ the traceback instead. Heavy modules are imported inside the commands so ``--hel
 from __future__ import annotations
 
 import functools
+import json
 import os
 import shutil
 import time
@@ -479,11 +480,17 @@ def build_cot_cmd(
         bars.close()
     console.print(f"{result.jobs} jobs: {result.generated} generated now, {result.already_done} already done, "
                   f"{result.failed} failed (retried on the next run)")
+    if result.failed:
+        last = (out / "failures.jsonl").read_text(encoding="utf-8").strip().splitlines()[-1]
+        console.print(f"[bold red]teacher failures[/bold red], e.g. {json.loads(last)['error']} "
+                      f"(all in {out / 'failures.jsonl'})", markup=True)
     console.print(f"accepted {result.accepted}, rejected {result.rejected}; generation "
                   f"{result.samples_per_second} samples/s; stage seconds {result.seconds}")
     rates = ", ".join(f"{t} {100 * r:.0f}%" for t, r in result.acceptance_by_task.items())
     console.print(f"acceptance by task: {rates}")
     console.print(f"training files in {out / 'touchcot'}; run report {out / 'build_cot.json'}")
+    if result.failed:
+        raise typer.Exit(1)  # incomplete: scripts should see it; re-running retries only the failed jobs
 
 
 @app.command("cot-review")
