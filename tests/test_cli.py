@@ -151,7 +151,8 @@ def test_quickstart_runs_named_stages(tmp_path: Path) -> None:
     out = tmp_path / "qs"
     result = invoke("quickstart", "--out", out, "--objects", "2", "--repeats", "1", "--workers", "1")
     assert result.exit_code == 0, result.output
-    assert "[1/2] simulate" in result.stdout and "[2/2] preview" in result.stdout
+    for n, stage in enumerate(("simulate", "preview", "benchmark", "baselines", "touchcot"), 1):
+        assert f"[{n}/5] {stage}" in result.stdout
     assert len((out / "sim" / "manifest.jsonl").read_text().splitlines()) == 2
     assert_pngs([out / "preview" / f"mini_apple_{kind}_0{suffix}.png"
                  for kind in ("real", "fake") for suffix in ("", "_signals")])

@@ -284,9 +284,9 @@ def quickstart(
     workers: Workers = None,
     overwrite: Overwrite = False,
 ) -> None:
-    """Run the pipeline end to end. Today: simulate a DynTAC-Sim corpus, preview a real and a fake fruit."""
+    """Run the pipeline end to end: simulate → preview → benchmark → baselines → TouchCoT (resumable)."""
     _at_least_one("--workers", workers)
-    sim_dir, preview_dir = out / "sim", out / "preview"
+    sim_dir, preview_dir, bench_dir = out / "sim", out / "preview", out / "bench"
 
     def simulate_stage() -> list[str]:
         return [run_simulation(sim_dir, objects, repeats, ["mini"], seed, workers, overwrite).text()]
@@ -295,11 +295,57 @@ def quickstart(
         Stage("simulate", f"DynTAC-Sim corpus → {sim_dir}", simulate_stage),
         Stage("preview", f"contact sheets + ground-truth plots → {preview_dir}",
               lambda: _preview_stage(sim_dir, preview_dir)),
+        Stage("benchmark", f"DynTAC-Sim-Bench QA items, split by object → {bench_dir}",
+              lambda: _bench_stage(sim_dir, bench_dir, seed)),
+        Stage("baselines", f"random and majority answers scored on the test split → {out / 'baselines'}",
+              lambda: _baselines_stage(bench_dir, out / "baselines", seed)),
+        Stage("touchcot", f"chain-of-thought training data, offline rules teacher → {out / 'touchcot'}",
+              lambda: _touchcot_stage(bench_dir, out / "touchcot", workers or 2, seed)),
     ]
     run_stages(stages)
-    console.print(f"\nQuickstart finished. Simulated corpus: {sim_dir} (manifest.jsonl, clips/); previews: "
-                  f"{preview_dir}. The model, TouchCoT, training and evaluation stages are added in later "
+    console.print(f"\nQuickstart finished in {out}: sim/ (corpus), preview/, bench/ (QA items), baselines/ "
+                  "(reports), touchcot/ (training data). Model training and evaluation stages are added in later "
                   "releases; re-running this command resumes where it stopped.")
+
+
+def _bench_stage(sim_dir: Path, bench_dir: Path, seed: int) -> list[str]:
+    from tacreasoner.tasks.bench import build_bench
+
+    summary = build_bench("sim", sim_dir, bench_dir, seed=seed)
+    lines = [f"{split}: {sum(counts.values())} items over {summary.objects.get(split, 0)} objects"
+             for split, counts in summary.counts.items()]
+    return lines + [f"note: {n}" for n in summary.notes[:5]]
+
+
+def _baselines_stage(bench_dir: Path, out_dir: Path, seed: int) -> list[str]:
+    from tacreasoner.evaluate.baselines import predict, write_predictions
+    from tacreasoner.evaluate.report import evaluate
+    from tacreasoner.tasks.bench import load_bench
+
+    _, test = load_bench(bench_dir, "test")
+    if not test:
+        return ["the test split is empty (too few objects); nothing to score"]
+    train = load_bench(bench_dir, "train")[1]
+    lines = []
+    for kind in ("random", "majority"):
+        preds = write_predictions(predict(test, kind, train=train, seed=seed), out_dir / f"{kind}.jsonl")
+        report = evaluate(test, [preds], "strict", out_dir / kind)
+        lines.append(f"{kind}: Average {100 * report.average['value']:.1f}% over {len(report.tasks)} tasks "
+                     f"(report: {out_dir / kind / 'report.md'})")
+    return lines
+
+
+def _touchcot_stage(bench_dir: Path, out_dir: Path, workers: int, seed: int) -> list[str]:
+    from tacreasoner.cot.backends import TeacherConfig
+    from tacreasoner.cot.build import build_cot
+    from tacreasoner.tasks.bench import load_bench
+
+    if not load_bench(bench_dir, "train")[1]:
+        return ["the train split is empty (too few objects); nothing to explain"]
+    result = build_cot(bench_dir, out_dir, TeacherConfig(backend="rules", model="rules-v1"), workers=workers,
+                       seed=seed)
+    return [f"{result.accepted} accepted of {result.jobs} samples ({result.generated} generated now); "
+            f"training files in {out_dir / 'touchcot'}"]
 
 
 # ------------------------------------------------------------------------------------------ benchmark
