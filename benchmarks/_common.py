@@ -65,3 +65,10 @@ def md_table(headers: list[str], rows: list[list]) -> str:
     lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
     lines += ["| " + " | ".join(fmt(v) for v in row) + " |" for row in rows]
     return "\n".join(lines) + "\n"
+
+
+def publish(name: str, payload: dict, markdown: str) -> None:
+    """Write the results and show them: what every benchmark script ends with."""
+    paths = write_results(name, payload, markdown)
+    print(markdown)
+    print("wrote", *paths)

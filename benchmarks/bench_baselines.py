@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, stamp, write_results
+from _common import header_md, publish, stamp
 
 REPO = Path(__file__).resolve().parents[1]
 PHYSICLEAR = Path("../shared/data/physiclear")
@@ -104,9 +104,7 @@ def main() -> None:
     md += "## Commands\n\n```\n" + "\n".join(commands) + "\n```\n"
     payload = {**info, "settings": {k: str(v) for k, v in vars(args).items()}, "commands": commands,
                "results": results}
-    paths = write_results("baselines", payload, md)
-    print(md)
-    print("wrote", *paths)
+    publish("baselines", payload, md)
 
 
 if __name__ == "__main__":

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, md_table, stamp, write_results
+from _common import header_md, md_table, publish, stamp
 from tacreasoner.data import cache
 from tacreasoner.data.readers import default_physiclear_dir, read_physiclear, read_sim_dataset
 from tacreasoner.data.sampling import sample_indices
@@ -114,9 +114,7 @@ def main() -> None:
            "so wall can be below CPU). On the 2-core VM these numbers were first taken on, the wall time of an\n"
            "uncached epoch swung between 0.55 and 2.4 s from run to run while its CPU time stayed at 0.65–0.85 s:\n"
            "trust the CPU column for decoding cost and compare settings within one run.\n")
-    paths_out = write_results("data_cache", payload, md)
-    print(md)
-    print("wrote", *paths_out)
+    publish("data_cache", payload, md)
 
 
 if __name__ == "__main__":

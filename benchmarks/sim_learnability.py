@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, md_table, stamp, write_results
+from _common import header_md, md_table, publish, stamp
 from tacreasoner.data.cues import FrameSignals, clip_cues, detect_phases, frame_signals
 from tacreasoner.data.video import read_video
 from tacreasoner.evaluate.probe import cross_validate_probe
@@ -127,9 +127,7 @@ def main() -> None:
                    rows_md)
     md += (f"\nData generation {t_gen:.0f} s (cached between runs), feature extraction {t_feat:.0f} s.\n"
            "Simulated data (DynTAC-Sim), not the paper's DynTAC-Bench.\n")
-    paths = write_results("sim_learnability", payload, md)
-    print(md)
-    print("wrote", *paths)
+    publish("sim_learnability", payload, md)
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import RESULTS, header_md, md_table, stamp, write_results
+from _common import RESULTS, header_md, md_table, publish, stamp
 from tacreasoner.data.cues import frame_signals
 from tacreasoner.data.video import read_video
 from tacreasoner.sim.generate import action_for_repeat, simulate_clip
@@ -94,9 +94,7 @@ def main() -> None:
     md += ("\n![real vs simulated](sim_realism.png)\n\nWhat is not matched: real clips are hand-held presses of "
            "everyday objects, many of them small or edged (the imprint covers less of the gel), and the real gel "
            "shows dust, scratches and a non-uniform coating that the simulator only approximates.\n")
-    paths = write_results("sim_realism", payload, md)
-    print(md)
-    print("wrote", *paths)
+    publish("sim_realism", payload, md)
 
 
 def _figure(real: list, sim: list, out: Path, n: int = 4) -> None:

@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, md_table, stamp, write_results
+from _common import header_md, md_table, publish, stamp
 from tacreasoner.data.video import write_video
 from tacreasoner.sim.generate import (
     action_for_repeat,
@@ -93,9 +93,7 @@ def main() -> None:
     md += (f"Quickstart corpus ({n_clips} clips, {corpus_frames} frames, {args.workers} worker processes): "
            f"**{corpus['seconds']} s**, **{corpus['fps']} frames/s** rendered and encoded "
            f"(targets: ≥300 frames/s, ≥500 clips in ≤180 s).\n")
-    paths = write_results("sim_speed", payload, md)
-    print(md)
-    print("wrote", *paths)
+    publish("sim_speed", payload, md)
 
 
 if __name__ == "__main__":

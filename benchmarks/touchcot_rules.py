@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, md_table, stamp, write_results
+from _common import header_md, md_table, publish, stamp
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -70,9 +70,7 @@ def main() -> None:
     payload = {**info, "settings": vars(args), "commands": commands, "build_cot": report,
                "seconds": {"build_bench": round(t_bench, 1), "build_cot": round(t_cot, 1)},
                "format_stats": {k: stats[k] for k in ("train", "val", "val_mixed", "warnings")}}
-    paths = write_results("touchcot_rules", payload, md)
-    print(md)
-    print("wrote", *paths)
+    publish("touchcot_rules", payload, md)
 
 
 if __name__ == "__main__":

@@ -134,6 +134,9 @@ class ClipProgress:
 
     def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
+        self.close()
+
+    def close(self) -> None:
         if self._progress is not None:
             self._progress.stop()
 
@@ -425,7 +428,7 @@ def score(
     from tacreasoner.tasks.bench import load_bench
 
     _, items = load_bench(bench, split)
-    out_dir = out or predictions[0].with_suffix("").parent / f"{predictions[0].stem}_report"
+    out_dir = out or predictions[0].parent / f"{predictions[0].stem}_report"
     report = evaluate(items, predictions, mode, out_dir)
     console.print(report.to_markdown())
     console.print(f"Report files in {out_dir}")
@@ -468,13 +471,13 @@ class StageProgress:
     def __call__(self, stage: str, done: int, total: int) -> None:
         if stage not in self._bars:
             for bar in self._bars.values():
-                bar.__exit__(None, None, None)
+                bar.close()
             self._bars[stage] = ClipProgress(stage, "clips" if stage == "prepare" else "samples")
         self._bars[stage](done, total)
 
     def close(self) -> None:
         for bar in self._bars.values():
-            bar.__exit__(None, None, None)
+            bar.close()
 
 
 def _teacher_config(teacher: str | None, config: Path | None, model: str | None):
@@ -520,8 +523,7 @@ def build_cot_cmd(
     bars = StageProgress()
     try:
         result = build_cot(bench, out, cfg, split=split, tasks=task_list, limit=limit, workers=workers,
-                           concurrency=concurrency, reveal_answer=not blind, seed=seed, progress=bars,
-                           on_stage=lambda name: None)
+                           concurrency=concurrency, reveal_answer=not blind, seed=seed, progress=bars)
     finally:
         bars.close()
     console.print(f"{result.jobs} jobs: {result.generated} generated now, {result.already_done} already done, "
@@ -550,8 +552,6 @@ def cot_review(
     seed: Seed = 0,
 ) -> None:
     """Manual audit: export a review sheet (CSV + self-contained HTML) or import reviewers' decisions."""
-    import json as _json
-
     from tacreasoner.cot.audit import export_review, import_review
     from tacreasoner.cot.build import REVIEW_DECISIONS
     from tacreasoner.cot.filter import filter_samples
@@ -567,7 +567,7 @@ def cot_review(
     if export:
         root = None
         if bench is not None:
-            root = Path(_json.loads((bench / "bench.json").read_text())["video_root"])
+            root = Path(json.loads((bench / "bench.json").read_text())["video_root"])
         csv_path, html_path = export_review(samples, cot / "review", bench_video_root=root, n=n, seed=seed)
         console.print(f"review sheet: {csv_path}\nreview page: {html_path}")
         return

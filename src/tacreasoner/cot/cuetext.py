@@ -8,10 +8,10 @@ known slots lets templates be validated when they are loaded, not when a job fir
 
 from __future__ import annotations
 
-import string
 from collections.abc import Mapping, Set
 
 from tacreasoner.cot.schema import STAGES, VideoCues
+from tacreasoner.tasks.templating import slot_names
 
 PERCENT = frozenset({"max_area", "press_area", "residual", "release_intensity", "contact_fraction", "time_to_max",
                      "seg_area_start", "seg_area_end"})
@@ -93,11 +93,6 @@ def render(template: str, values: Mapping[str, str], where: str = "template") ->
         raise ValueError(f"{where}: unknown slot {{{e.args[0]}}}") from None
     except (ValueError, IndexError) as e:
         raise ValueError(f"{where}: malformed template ({e})") from None
-
-
-def slot_names(text: str) -> set[str]:
-    """The ``{slot}`` names of a template (ValueError on malformed braces)."""
-    return {name for _, name, _, _ in string.Formatter().parse(text) if name is not None}
 
 
 def slot_problems(text: str, allowed: Set[str], required: Set[str]) -> tuple[list[str], list[str]]:
