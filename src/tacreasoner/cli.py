@@ -581,7 +581,125 @@ def cot_review(
                   f"{formatted.n_val} val")
 
 
-# ------------------------------------------------------------------------------------------ entry point
+# ------------------------------------------------------------------------------------------ model
+
+
+@app.command("merge-adapter")
+@cli_errors
+def merge_adapter_cmd(
+    model: Annotated[Path, typer.Argument(help="Base TacReasoner model directory (model + processor).")],
+    adapter: Annotated[Path, typer.Argument(help="Stage II adapter directory (LoRA + projector).")],
+    out: Annotated[Path, typer.Option("--out", help="Where to write the merged model + processor.")],
+) -> None:
+    """Fold a Stage II LoRA adapter into its base model: one directory that loads without PEFT."""
+    _needs_train_extra("merge-adapter")
+    from tacreasoner.model.build import load_model, save_model
+    from tacreasoner.model.stages import merge_adapter
+
+    if out.resolve() in (model.resolve(), adapter.resolve()):
+        raise ValueError(f"--out {out} must differ from the model and adapter directories")
+    base, processor = load_model(model)
+    save_model(merge_adapter(base, adapter), processor, out)
+    console.print(f"merged model: {out} (loads with AutoModelForCausalLM / AutoProcessor after import tacreasoner)")
+
+
+# ------------------------------------------------------------------------------------------ tiny LLM
+
+
+def _needs_train_extra(command: str) -> None:
+    """The model commands need torch + transformers; say how to get them instead of a traceback."""
+    try:
+        import torch  # noqa: F401
+        import transformers  # noqa: F401
+    except ImportError:
+        raise ValueError(f'{command} needs torch and transformers: pip install -e ".[train]"') from None
+
+
+@app.command("pretrain-llm")
+@cli_errors
+def pretrain_llm_cmd(
+    out: Annotated[Path, typer.Option("--out", help="Model directory: final model + tokenizer, checkpoints/, logs "
+                                                    "(resume with --resume).")],
+    steps: Annotated[int, typer.Option("--steps", help="Optimizer steps.")] = 320,
+    batch_size: Annotated[int, typer.Option("--batch-size", help="Packed rows of --seq-len tokens per step.")] = 16,
+    seq_len: Annotated[int, typer.Option("--seq-len", help="Tokens per packed row.")] = 256,
+    lr: Annotated[float, typer.Option("--lr", help="Peak learning rate (linear warmup, then cosine decay).")] = 3e-3,
+    vocab_size: Annotated[int, typer.Option("--vocab-size", help="Largest BPE vocabulary to train.")] = 4096,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the corpus, its holdout and the training.")] = 0,
+    resume: Annotated[bool, typer.Option("--resume", help="Continue from the newest checkpoint in --out.")] = False,
+    threads: Annotated[int | None, typer.Option("--threads", help="CPU threads (default: cores not busy with "
+                                                                  "other work).", show_default=False)] = None,
+    evaluate: Annotated[bool, typer.Option("--eval/--no-eval", help="Answer the held-out knowledge questions "
+                                                                    "afterwards.")] = True,
+) -> None:
+    """Pre-train the tiny LLM from scratch (BPE tokenizer + Qwen2) on the commonsense corpus; text only, resumable."""
+    _needs_train_extra("pretrain-llm")
+    from transformers.utils import logging as hf_logging
+
+    from tacreasoner.train.pretrain_llm import knowledge_check, pretrain_llm
+
+    _at_least_one("--threads", threads)
+    hf_logging.disable_progress_bar()
+    model_dir = pretrain_llm(out, steps=steps, batch_size=batch_size, seq_len=seq_len, lr=lr, seed=seed,
+                             resume=resume, vocab_size=vocab_size, threads=threads)
+    info = json.loads((model_dir / "pretrain.json").read_text(encoding="utf-8"))
+    console.print(f"model + tokenizer: {model_dir} (AutoModelForCausalLM / AutoTokenizer.from_pretrained); "
+                  f"{info['parameters'] / 1e6:.1f} M parameters, vocabulary {info['vocab_size']}")
+    console.print(f"{info['steps_done']} steps, {info['tokens_seen'] / 1e6:.2f} M tokens, training "
+                  f"{info['train_seconds']:.0f} s, final loss {info['final_loss']}; "
+                  f"log {model_dir / 'train_log.jsonl'}")
+    if not evaluate:
+        return
+    result = knowledge_check(model_dir, threads=threads)
+    console.print("held-out knowledge (text only; accuracy, Wilson 95% CI, chance):")
+    for kind, s in result["kinds"].items():
+        lo, hi = s["ci95"]
+        console.print(f"  {kind:14s} {s['accuracy']:.2f} [{lo:.2f}, {hi:.2f}]  chance {s['chance']:.2f}  "
+                      f"n={s['n']}{'' if s['above_chance'] else '  (not above chance)'}")
+    console.print(f"report: {model_dir / 'knowledge_eval.json'}; answers: {model_dir / 'knowledge_predictions.jsonl'}")
+
+
+# ------------------------------------------------------------------------------------------ appearance encoder
+
+
+@app.command("pretrain-encoder")
+@cli_errors
+def pretrain_encoder_cmd(
+    out: Annotated[Path, typer.Option("--out", help="Encoder directory: config.json + model.safetensors, "
+                                                    "video_processing.json, log, checkpoints/.")],
+    data: Annotated[list[Path] | None, typer.Option(
+        "--data", help="Simulator dataset directory, video file or folder of videos (repeatable).")] = None,
+    physiclear: Annotated[bool, typer.Option("--physiclear/--no-physiclear", help="Add every PhysiCLeAR clip "
+                                             "(real, unlabelled use) when the data is present.")] = True,
+    steps: Annotated[int, typer.Option("--steps", help="Optimizer steps.")] = 1000,
+    batch_size: Annotated[int, typer.Option("--batch-size", help="Clips per step.")] = 32,
+    mask_ratio: Annotated[float, typer.Option("--mask-ratio", help="Share of tubes hidden per clip.")] = 0.9,
+    seed: Seed = 0,
+    resume: Annotated[bool, typer.Option("--resume", help="Continue from the newest checkpoint in --out.")] = False,
+) -> None:
+    """Pre-train the appearance ViT by masked video reconstruction on simulated + real tactile video (resumable)."""
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        raise ValueError('pretrain-encoder needs torch: pip install -e ".[train]"') from None
+    from tacreasoner.train.pretrain_encoder import gather_pretraining_clips, pretrain_encoder
+
+    _at_least_one("--steps", steps)
+    _at_least_one("--batch-size", batch_size)
+    clips, notes = gather_pretraining_clips(data or [], physiclear=physiclear)
+    for note in notes:
+        console.print(note)
+    if not clips:
+        raise ValueError("no clips to pre-train on: pass --data (simulator dataset, videos) or keep --physiclear "
+                         "with PhysiCLeAR present")
+    start = time.perf_counter()
+    model_dir = pretrain_encoder(clips, out, steps=steps, batch_size=batch_size, mask_ratio=mask_ratio, seed=seed,
+                                 resume=resume)
+    log = (model_dir / "pretrain_log.jsonl").read_text(encoding="utf-8").strip().splitlines()
+    last = json.loads(log[-1]) if log else {}
+    console.print(f"{len(clips)} clips, {last.get('step', steps)} steps, final loss {last.get('loss', '–')}, "
+                  f"{time.perf_counter() - start:.0f} s")
+    console.print(f"encoder: {model_dir} (AppearanceEncoder.from_pretrained); log {model_dir / 'pretrain_log.jsonl'}")
 
 
 def _print_version(value: bool) -> None:

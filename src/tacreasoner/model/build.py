@@ -1,0 +1,59 @@
+"""Assemble a TacReasoner model and its processor from parts, and save/load the pair as one directory."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+from transformers import AutoTokenizer, PreTrainedModel, PreTrainedTokenizerBase
+
+from tacreasoner.model.encoder_config import TactileEncoderConfig
+from tacreasoner.model.modeling import TacReasonerForCausalLM
+from tacreasoner.model.processing import PROCESSOR_CONFIG_NAME, TacReasonerProcessor
+from tacreasoner.model.tokenizer import TACTILE_PAD, prepare_tokenizer
+
+__all__ = ["build_model", "load_model", "save_model"]
+
+
+def build_model(llm: str | os.PathLike[str] | PreTrainedModel, *, tokenizer: PreTrainedTokenizerBase | None = None,
+                encoder: TactileEncoderConfig | dict[str, Any] | None = None,
+                appearance: str | os.PathLike[str] | None = None, video: dict[str, Any] | None = None,
+                system_prompt: str | None = None, **llm_kwargs: Any,
+                ) -> tuple[TacReasonerForCausalLM, TacReasonerProcessor]:
+    """Wrap a causal LM (directory or hub id: the tiny one from ``pretrain-llm`` or a real Qwen2.5).
+
+    The tokenizer (``llm``'s own by default) gets the tactile token, reasoning tags and a chat
+    template where missing; the rows of tokens it gains are recorded as ``new_token_ids`` so Stage I
+    trains them. ``appearance``: a ``pretrain-encoder`` output directory; its ViT shape wins.
+    """
+    if tokenizer is None:
+        if isinstance(llm, PreTrainedModel):
+            raise ValueError("build_model: give tokenizer= when passing a model object instead of a directory")
+        tokenizer = AutoTokenizer.from_pretrained(llm)
+    before = len(tokenizer)
+    added = prepare_tokenizer(tokenizer)
+    model = TacReasonerForCausalLM.from_llm(
+        llm, tactile_token_id=int(tokenizer.convert_tokens_to_ids(TACTILE_PAD)), vocab_size=len(tokenizer),
+        new_token_ids=list(range(before, before + added)), encoder=encoder, appearance=appearance, **llm_kwargs)
+    processor = TacReasonerProcessor.for_encoder(tokenizer, model.encoder_config, video=video or {},
+                                                 system_prompt=system_prompt)
+    return model, processor
+
+
+def save_model(model: Any, processor: TacReasonerProcessor, directory: str | os.PathLike[str]) -> Path:
+    """Model (config + safetensors, or a PEFT adapter) and processor side by side in one directory."""
+    directory = Path(directory)
+    model.save_pretrained(directory)
+    processor.save_pretrained(directory)
+    return directory
+
+
+def load_model(directory: str | os.PathLike[str], **kwargs: Any) -> tuple[TacReasonerForCausalLM, TacReasonerProcessor]:
+    """A directory written by :func:`save_model` (a merged model, not an adapter)."""
+    directory = Path(directory)
+    if not (directory / "config.json").is_file():
+        raise FileNotFoundError(f"{directory}: no config.json — not a saved TacReasoner model directory")
+    if not (directory / PROCESSOR_CONFIG_NAME).is_file():
+        raise FileNotFoundError(f"{directory}: no {PROCESSOR_CONFIG_NAME} — save the processor next to the model")
+    return TacReasonerForCausalLM.from_pretrained(directory, **kwargs), TacReasonerProcessor.from_pretrained(directory)

@@ -1,0 +1,116 @@
+"""Settings of the dynamic-aware tactile encoder, one flat dataclass so every ablation is one field.
+
+Kept free of torch so configs can be validated (and documented) without the model installed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+from tacreasoner.fields import reject_unknown_fields
+
+__all__ = ["DEFAULT_SENSOR_TYPES", "TactileEncoderConfig"]
+
+DEFAULT_SENSOR_TYPES = ("unknown", "mini", "digit", "tac3d")
+
+
+@dataclass
+class TactileEncoderConfig:
+    """Appearance ViT (VideoMAE-style) + temporal difference branch + fusion; defaults are the tiny CPU model."""
+
+    # --- input (the video processor must produce exactly this)
+    num_frames: int = 8
+    image_size: tuple[int, int] = (64, 64)
+    """(height, width) after resizing."""
+    # --- appearance branch: ViT over space-time tubelets (frozen in Stages I and II)
+    patch_size: int = 8
+    tubelet_size: int = 2
+    hidden_size: int = 128
+    num_layers: int = 4
+    num_heads: int = 4
+    mlp_ratio: float = 4.0
+    layer_norm_eps: float = 1e-6
+    qkv_bias: bool = True
+    # --- temporal branch: frame differences → light encoder → question-steered pooling
+    use_temporal: bool = True
+    temporal_hidden_size: int = 128
+    temporal_tokens: int = 4
+    """Length of the aggregated temporal sequence F̄_temp (time is what it is for, so more than one)."""
+    question_conditioning: bool = True
+    # --- fusion (Q = appearance, K = V = temporal) and output
+    fusion_heads: int = 4
+    tokens_per_video: int = 5
+    """Tactile tokens handed to the LLM per video: 1 = CLS only (paper-faithful), n = CLS + n−1 pooled patch tokens."""
+    sensor_embedding: bool = False
+    sensor_types: tuple[str, ...] = DEFAULT_SENSOR_TYPES
+
+    def __post_init__(self) -> None:
+        self.image_size = tuple(int(v) for v in self.image_size)  # type: ignore[assignment]
+        self.sensor_types = tuple(str(s) for s in self.sensor_types)
+        self.validate()
+
+    # ------------------------------------------------------------------ derived sizes
+    @property
+    def grid(self) -> tuple[int, int, int]:
+        """Tubelet grid (time, height, width)."""
+        h, w = self.image_size
+        return self.num_frames // self.tubelet_size, h // self.patch_size, w // self.patch_size
+
+    @property
+    def num_patches(self) -> int:
+        t, h, w = self.grid
+        return t * h * w
+
+    # ------------------------------------------------------------------ checks and (de)serialisation
+    def validate(self) -> None:
+        def positive(name: str) -> None:
+            value = getattr(self, name)
+            if not isinstance(value, int | float) or isinstance(value, bool) or value <= 0:
+                raise ValueError(f"encoder config: {name} must be a positive number, got {value!r}")
+
+        for name in ("num_frames", "patch_size", "tubelet_size", "hidden_size", "num_layers", "num_heads",
+                     "mlp_ratio", "temporal_hidden_size", "temporal_tokens", "fusion_heads", "tokens_per_video"):
+            positive(name)
+        if len(self.image_size) != 2 or min(self.image_size) <= 0:
+            raise ValueError(f"encoder config: image_size must be (height, width) > 0, got {self.image_size!r}")
+        if self.num_frames < 2:
+            raise ValueError("encoder config: num_frames must be ≥ 2 (the temporal branch needs frame differences)")
+        if self.num_frames % self.tubelet_size:
+            raise ValueError(f"encoder config: num_frames ({self.num_frames}) must be a multiple of "
+                             f"tubelet_size ({self.tubelet_size})")
+        for side, name in zip(self.image_size, ("height", "width"), strict=True):
+            if side % self.patch_size:
+                raise ValueError(f"encoder config: image {name} {side} must be a multiple of patch_size "
+                                 f"{self.patch_size}")
+        for width, heads, what in ((self.hidden_size, self.num_heads, "hidden_size/num_heads"),
+                                   (self.hidden_size, self.fusion_heads, "hidden_size/fusion_heads")):
+            if width % heads:
+                raise ValueError(f"encoder config: {what} must divide evenly, got {width}/{heads}")
+        if self.tokens_per_video - 1 > self.num_patches:
+            raise ValueError(f"encoder config: tokens_per_video {self.tokens_per_video} needs more patch tokens than "
+                             f"the {self.num_patches} the ViT makes")
+        if not self.sensor_types:
+            raise ValueError("encoder config: sensor_types must not be empty")
+
+    def sensor_index(self, sensor: str | None) -> int:
+        """Index into ``sensor_types``; ``mini+markers``/``digit@30`` map to their base style, others to 0."""
+        base = (sensor or "unknown").split("+")[0].split("@")[0].lower()
+        return self.sensor_types.index(base) if base in self.sensor_types else 0
+
+    def to_dict(self) -> dict[str, Any]:
+        out = dataclasses.asdict(self)
+        out["image_size"] = list(self.image_size)
+        out["sensor_types"] = list(self.sensor_types)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any] | None, what: str = "encoder config: unknown keys") -> TactileEncoderConfig:
+        data = dict(data or {})
+        reject_unknown_fields(cls, data, what, known="declared")
+        return cls(**data)
+
+    def replace(self, **changes: Any) -> TactileEncoderConfig:
+        return dataclasses.replace(self, **changes)
+

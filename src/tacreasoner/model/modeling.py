@@ -1,0 +1,218 @@
+"""``TacReasonerForCausalLM``: a Hugging Face causal LM with tactile embeddings scattered into its input.
+
+One readable file in the style of ``transformers``' LLaVA: each video in a prompt is a run of
+``tokens_per_video`` placeholder ids (the processor expands ``<tactile>``); the encoder turns each
+video into that many embeddings, and ``forward`` writes them over the placeholders' text embeddings
+before calling the language model. Everything else (loss, KV cache, generation) is the LM's own.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import torch
+from torch import nn
+from transformers import AutoModelForCausalLM, PreTrainedModel
+from transformers.modeling_outputs import CausalLMOutputWithPast
+
+from tacreasoner.model.configuration import TacReasonerConfig
+from tacreasoner.model.encoder_config import TactileEncoderConfig
+from tacreasoner.model.tactile_encoder import DynamicTactileEncoder, TactileProjector
+
+__all__ = ["TacReasonerForCausalLM", "TacReasonerPreTrainedModel", "TactileAnswer", "count_videos"]
+
+
+@dataclass
+class TactileAnswer:
+    """A generated reply split into its reasoning and answer (either ``None`` when the model left it out)."""
+
+    text: str
+    think: str | None
+    answer: str | None
+
+
+def count_videos(input_ids: torch.Tensor, tactile_token_id: int, tokens_per_video: int) -> torch.Tensor:
+    """Videos per sample, from the placeholder runs in ``input_ids``; a clear error when runs are malformed."""
+    per_sample = (input_ids == tactile_token_id).sum(dim=1)
+    bad = per_sample % tokens_per_video != 0
+    if bool(bad.any()):
+        i = int(bad.nonzero()[0])
+        raise ValueError(f"sample {i} holds {int(per_sample[i])} tactile placeholder tokens, not a multiple of "
+                         f"tokens_per_video={tokens_per_video}: build inputs with TacReasonerProcessor, which expands "
+                         f"each <tactile> to exactly that many")
+    return per_sample // tokens_per_video
+
+
+class TacReasonerPreTrainedModel(PreTrainedModel):
+    config_class = TacReasonerConfig
+    base_model_prefix = ""
+    supports_gradient_checkpointing = True
+    _supports_sdpa = True
+    _supports_flash_attn = True
+    _no_split_modules: ClassVar[list[str]] = ["DynamicTactileEncoder"]
+
+    def _init_weights(self, module: nn.Module) -> None:
+        if getattr(module, "zero_init", False):
+            nn.init.zeros_(module.weight)
+            nn.init.zeros_(module.bias)
+            return
+        super()._init_weights(module)
+
+
+class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
+    """Tactile encoder + projector + any causal LM. See :mod:`tacreasoner.model` for the training stages."""
+
+    def __init__(self, config: TacReasonerConfig, language_model: PreTrainedModel | None = None) -> None:
+        super().__init__(config)
+        if language_model is None:
+            language_model = AutoModelForCausalLM.from_config(config.text_config)
+        else:
+            for module in language_model.modules():  # already trained: post_init must not re-initialise it
+                module._is_hf_initialized = True
+        self.language_model = language_model
+        self.tactile_encoder = DynamicTactileEncoder(config.encoder_config, config.text_hidden_size)
+        self.projector = TactileProjector(self.tactile_encoder.hidden_size, config.text_hidden_size)
+        self.post_init()
+
+    # ------------------------------------------------------------------ HF plumbing
+    def get_input_embeddings(self) -> nn.Module:
+        return self.language_model.get_input_embeddings()
+
+    def set_input_embeddings(self, value: nn.Module) -> None:
+        self.language_model.set_input_embeddings(value)
+
+    def get_output_embeddings(self) -> nn.Module | None:
+        return self.language_model.get_output_embeddings()
+
+    def set_output_embeddings(self, value: nn.Module) -> None:
+        self.language_model.set_output_embeddings(value)
+
+    @property
+    def encoder_config(self) -> TactileEncoderConfig:
+        return self.tactile_encoder.config
+
+    # ------------------------------------------------------------------ building from parts
+    @classmethod
+    def from_llm(cls, llm: str | os.PathLike[str] | PreTrainedModel, *, tactile_token_id: int,
+                 encoder: TactileEncoderConfig | dict | None = None, vocab_size: int | None = None,
+                 new_token_ids: list[int] | None = None, appearance: str | os.PathLike[str] | None = None,
+                 **llm_kwargs: Any) -> TacReasonerForCausalLM:
+        """Wrap a trained causal LM (a directory, hub id, or model) — a real Qwen2.5 or the tiny one alike.
+
+        ``vocab_size``: the tokenizer's size after tactile tokens were added; the LM's embeddings grow
+        to it when smaller (new rows start at the mean of the old ones). Real checkpoints often have
+        spare rows already (Qwen2.5: 152,064 rows for 151,665 tokens) and are left as they are. ``appearance``: a
+        directory saved by ``AppearanceEncoder.save_pretrained`` (``pretrain-encoder``) to load.
+        """
+        if not isinstance(llm, PreTrainedModel):
+            llm = AutoModelForCausalLM.from_pretrained(llm, **llm_kwargs)
+        if vocab_size is not None and vocab_size > llm.get_input_embeddings().num_embeddings:
+            llm.resize_token_embeddings(vocab_size, mean_resizing=True)
+        enc = encoder if isinstance(encoder, TactileEncoderConfig) else TactileEncoderConfig.from_dict(encoder)
+        if appearance is not None:
+            from tacreasoner.model.appearance import AppearanceEncoder
+
+            loaded = AppearanceEncoder.from_pretrained(appearance)
+            enc = _with_appearance_of(enc, loaded.config)
+        config = TacReasonerConfig(text_config=llm.config.to_dict(), encoder=enc.to_dict(),
+                                   tactile_token_id=tactile_token_id, new_token_ids=new_token_ids or [])
+        model = cls(config, language_model=llm)
+        if appearance is not None:
+            model.tactile_encoder.appearance.load_state_dict(loaded.state_dict())
+        return model.to(llm.dtype)
+
+    # ------------------------------------------------------------------ the tactile path
+    def question_vectors(self, input_ids: torch.Tensor, text_embeds: torch.Tensor,
+                         attention_mask: torch.Tensor | None, question_mask: torch.Tensor | None) -> torch.Tensor:
+        """Mean input embedding of each sample's question tokens (B×H), the temporal branch's steer."""
+        if question_mask is None:  # fall back to every real, non-tactile token
+            question_mask = input_ids != self.config.tactile_token_id
+            if attention_mask is not None:
+                question_mask = question_mask & attention_mask.bool()
+        weights = question_mask.to(text_embeds.dtype).unsqueeze(-1)
+        return (text_embeds * weights).sum(1) / weights.sum(1).clamp(min=1.0)
+
+    def encode_videos(self, pixel_values: torch.Tensor, question: torch.Tensor | None = None,
+                      sensor_ids: torch.Tensor | None = None, appearance: torch.Tensor | None = None) -> torch.Tensor:
+        """Videos → V×tokens_per_video×LLM-hidden embeddings (what replaces the placeholders)."""
+        features = self.tactile_encoder(pixel_values, question, sensor_ids, appearance)
+        return self.projector(features)
+
+    def embed_inputs(self, input_ids: torch.Tensor, pixel_values: torch.Tensor | None = None,
+                     attention_mask: torch.Tensor | None = None, question_mask: torch.Tensor | None = None,
+                     sensor_ids: torch.Tensor | None = None, appearance_tokens: torch.Tensor | None = None,
+                     ) -> torch.Tensor:
+        """Text embeddings with each video's tactile embeddings written over its placeholder run."""
+        tpv = self.encoder_config.tokens_per_video
+        per_sample = count_videos(input_ids, self.config.tactile_token_id, tpv)
+        n_placeholders, n_videos = int(per_sample.sum()), 0 if pixel_values is None else len(pixel_values)
+        if n_placeholders != n_videos:
+            raise ValueError(f"the prompts hold {n_placeholders} tactile placeholder(s) "
+                             f"({n_placeholders * tpv} tokens at {tpv} per video) but {n_videos} video(s) were given")
+        text_embeds = self.get_input_embeddings()(input_ids)
+        if n_videos == 0:
+            return text_embeds
+        question = None
+        if self.encoder_config.use_temporal and self.encoder_config.question_conditioning:
+            per_sample_q = self.question_vectors(input_ids, text_embeds, attention_mask, question_mask)
+            question = per_sample_q.repeat_interleave(per_sample, dim=0)
+        tactile = self.encode_videos(pixel_values.to(text_embeds.dtype), question, sensor_ids, appearance_tokens)
+        mask = (input_ids == self.config.tactile_token_id).unsqueeze(-1)
+        return text_embeds.masked_scatter(mask, tactile.to(text_embeds.dtype).reshape(-1, text_embeds.shape[-1]))
+
+    # ------------------------------------------------------------------ forward / generate
+    def forward(self, input_ids: torch.Tensor | None = None, attention_mask: torch.Tensor | None = None,
+                pixel_values: torch.Tensor | None = None, sensor_ids: torch.Tensor | None = None,
+                question_mask: torch.Tensor | None = None, labels: torch.Tensor | None = None,
+                position_ids: torch.Tensor | None = None, past_key_values: Any = None,
+                inputs_embeds: torch.Tensor | None = None, use_cache: bool | None = None,
+                appearance_tokens: torch.Tensor | None = None, **kwargs: Any) -> CausalLMOutputWithPast:
+        """``appearance_tokens`` (optional, V×tokens_per_video×hidden): cached output of the frozen ViT."""
+        if inputs_embeds is None:
+            if input_ids is None:
+                raise ValueError("give input_ids (from TacReasonerProcessor) or inputs_embeds")
+            inputs_embeds = self.embed_inputs(input_ids, pixel_values, attention_mask, question_mask, sensor_ids,
+                                              appearance_tokens)
+        elif pixel_values is not None:
+            raise ValueError("pixel_values need input_ids to find the placeholders; got inputs_embeds instead")
+        return self.language_model(inputs_embeds=inputs_embeds, attention_mask=attention_mask, labels=labels,
+                                   position_ids=position_ids, past_key_values=past_key_values, use_cache=use_cache,
+                                   **kwargs)
+
+    @torch.no_grad()
+    def generate(self, input_ids: torch.Tensor, attention_mask: torch.Tensor | None = None,
+                 pixel_values: torch.Tensor | None = None, sensor_ids: torch.Tensor | None = None,
+                 question_mask: torch.Tensor | None = None, labels: torch.Tensor | None = None,
+                 **generate_kwargs: Any) -> torch.Tensor:
+        """The LM's own ``generate`` (KV cache, greedy/sampling, streamers) on the tactile-filled prompt.
+
+        Returns only the new token ids (B×new); :meth:`answer` decodes and splits them.
+        """
+        embeds = self.embed_inputs(input_ids, pixel_values, attention_mask, question_mask, sensor_ids)
+        return self.language_model.generate(inputs_embeds=embeds, attention_mask=attention_mask, **generate_kwargs)
+
+    def answer(self, processor: Any, question: str, videos: list[Any], *, system: str | None = None,
+               max_new_tokens: int = 256, do_sample: bool = False, temperature: float = 0.7, top_p: float = 0.9,
+               streamer: Any = None) -> TactileAnswer:
+        """Ask one question about ``videos`` (clips, frames or paths; one per ``<tactile>``) and parse the reply."""
+        from tacreasoner.tasks.extract import split_reasoning
+
+        inputs = processor.prompt(question, videos, system=system).to(self.device)
+        sampling: dict[str, Any] = {"do_sample": False}
+        if do_sample:
+            sampling = {"do_sample": True, "temperature": temperature, "top_p": top_p}
+        out = self.generate(**inputs, max_new_tokens=max_new_tokens, streamer=streamer,
+                            eos_token_id=processor.eos_token_ids, pad_token_id=processor.tokenizer.pad_token_id,
+                            **sampling)
+        text = processor.tokenizer.decode(out[0], skip_special_tokens=True)
+        think, answer = split_reasoning(text)
+        return TactileAnswer(text=text, think=think, answer=answer)
+
+
+def _with_appearance_of(enc: TactileEncoderConfig, appearance: TactileEncoderConfig) -> TactileEncoderConfig:
+    """The wanted encoder config with the pre-trained appearance ViT's shape fields."""
+    shape_fields = ("num_frames", "image_size", "patch_size", "tubelet_size", "hidden_size", "num_layers", "num_heads",
+                    "mlp_ratio", "layer_norm_eps", "qkv_bias")
+    return enc.replace(**{f: getattr(appearance, f) for f in shape_fields})

@@ -1,0 +1,244 @@
+"""``TacReasonerProcessor``: the tokenizer and the video preprocessing in one object, saved with the model.
+
+It renders conversations with the tokenizer's chat template, expands each ``<tactile>`` into
+``tokens_per_video`` placeholder ids, preprocesses the videos, and marks which tokens are the
+question (steering the temporal branch) and which are the assistant's (the only ones with a loss).
+Token roles come from character offsets in the rendered text, so any chat template works as long
+as rendering the prompt gives a prefix of rendering the whole conversation.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from transformers import AutoTokenizer, BatchFeature, PreTrainedTokenizerBase
+
+from tacreasoner.model.encoder_config import DEFAULT_SENSOR_TYPES, TactileEncoderConfig
+from tacreasoner.model.tokenizer import IM_END, TACTILE_PAD
+from tacreasoner.model.video_processing import VideoInput, VideoProcessingConfig, preprocess_video, sensor_of
+from tacreasoner.tasks.schema import PLACEHOLDER
+
+__all__ = ["IGNORE_INDEX", "PROCESSOR_CONFIG_NAME", "TacReasonerProcessor"]
+
+IGNORE_INDEX = -100
+PROCESSOR_CONFIG_NAME = "processor_config.json"
+
+
+@dataclass
+class _Encoded:
+    input_ids: list[int]
+    labels: list[int]
+    question_mask: list[int]
+
+
+class TacReasonerProcessor:
+    """Tokenizer + video processing; ``prompt`` for inference, ``example``/``collate`` for training."""
+
+    def __init__(self, tokenizer: PreTrainedTokenizerBase, video_config: VideoProcessingConfig | None = None, *,
+                 tokens_per_video: int = 5, sensor_types: Sequence[str] = DEFAULT_SENSOR_TYPES,
+                 system_prompt: str | None = None) -> None:
+        if tokens_per_video < 1:
+            raise ValueError(f"tokens_per_video must be ≥ 1, got {tokens_per_video}")
+        self.tokenizer = tokenizer
+        self.video_config = video_config or VideoProcessingConfig()
+        self.tokens_per_video = int(tokens_per_video)
+        self.sensor_types = tuple(sensor_types)
+        self.system_prompt = system_prompt
+        self.tactile_token_id = self._single_token_id(TACTILE_PAD)
+        if getattr(tokenizer, "chat_template", None) is None:
+            raise ValueError("the tokenizer has no chat template: "
+                             "run tacreasoner.model.tokenizer.prepare_tokenizer on it")
+
+    @classmethod
+    def for_encoder(cls, tokenizer: PreTrainedTokenizerBase, encoder: TactileEncoderConfig, **kwargs: Any,
+                    ) -> TacReasonerProcessor:
+        """A processor whose frames and token counts match ``encoder`` (the usual way to build one)."""
+        video = VideoProcessingConfig(num_frames=encoder.num_frames, image_size=encoder.image_size,
+                                      **kwargs.pop("video", {}))
+        return cls(tokenizer, video, tokens_per_video=encoder.tokens_per_video, sensor_types=encoder.sensor_types,
+                   **kwargs)
+
+    def _single_token_id(self, token: str) -> int:
+        ids = self.tokenizer.convert_tokens_to_ids([token])
+        unk = self.tokenizer.unk_token_id
+        if not ids or ids[0] is None or (unk is not None and ids[0] == unk):
+            raise ValueError(f"the tokenizer has no {token!r} token: run tacreasoner.model.tokenizer.prepare_tokenizer "
+                             f"on it and resize the model's embeddings")
+        return int(ids[0])
+
+    @property
+    def eos_token_ids(self) -> list[int]:
+        """Generation stops at the end of the assistant turn (``<|im_end|>``) or at the tokenizer's eos."""
+        ids = {self._single_token_id(IM_END)} if IM_END in self.tokenizer.get_vocab() else set()
+        if self.tokenizer.eos_token_id is not None:
+            ids.add(int(self.tokenizer.eos_token_id))
+        return sorted(ids)
+
+    # ------------------------------------------------------------------ videos
+    def preprocess_videos(self, videos: Sequence[VideoInput], *, seed: int | None = None) -> dict[str, torch.Tensor]:
+        """pixel_values (V×T×3×H×W) and sensor_ids (V) for a list of clips/frames/paths."""
+        arrays = [preprocess_video(v, self.video_config, seed=None if seed is None else seed + i)
+                  for i, v in enumerate(videos)]
+        c = self.video_config
+        pixel_values = torch.from_numpy(np.stack(arrays)) if arrays else \
+            torch.zeros((0, c.num_frames, 3, *c.image_size))
+        sensors = [sensor_of(v).split("+")[0].split("@")[0].lower() for v in videos]
+        sensor_ids = torch.tensor([self.sensor_types.index(s) if s in self.sensor_types else 0 for s in sensors],
+                                  dtype=torch.long)
+        return {"pixel_values": pixel_values, "sensor_ids": sensor_ids}
+
+    # ------------------------------------------------------------------ text
+    def expand(self, text: str) -> str:
+        return text.replace(PLACEHOLDER, TACTILE_PAD * self.tokens_per_video)
+
+    def messages(self, question: str, answer: str | None = None, system: str | None = None) -> list[dict[str, str]]:
+        out = []
+        if system or self.system_prompt:
+            out.append({"role": "system", "content": system or self.system_prompt})
+        out.append({"role": "user", "content": question})
+        if answer is not None:
+            out.append({"role": "assistant", "content": answer})
+        return out
+
+    def _render(self, messages: list[dict[str, str]], add_generation_prompt: bool) -> str:
+        return self.tokenizer.apply_chat_template(messages, tokenize=False, add_generation_prompt=add_generation_prompt)
+
+    def encode_conversation(self, messages: list[dict[str, str]], *, add_generation_prompt: bool) -> _Encoded:
+        """Token ids with labels (assistant turns only) and the question mask (user text, no placeholders)."""
+        expanded = [{**m, "content": self.expand(m["content"])} for m in messages]
+        text = self._render(expanded, add_generation_prompt)
+        user_spans, assistant_spans = [], []
+        previous = ""
+        for i, message in enumerate(expanded):
+            upto = self._render(expanded[: i + 1], False)
+            if not upto.startswith(previous) or not text.startswith(upto):
+                raise ValueError("the tokenizer's chat template does not render a conversation's first turns as a "
+                                 "prefix of the whole: token roles cannot be found")
+            start = upto.find(message["content"], len(previous))
+            if start < 0:
+                raise ValueError(f"the chat template changed the content of the {message['role']} turn")
+            span = (start, start + len(message["content"]))
+            if message["role"] == "user":
+                user_spans.append(span)
+            elif message["role"] == "assistant":
+                # the turn's end marker (<|im_end|>) is part of what the model must learn to produce
+                end = upto.find(IM_END, span[1])
+                assistant_spans.append((span[0], end + len(IM_END) if end >= 0 else span[1]))
+            previous = upto
+        enc = self.tokenizer(text, add_special_tokens=False, return_offsets_mapping=True)
+        ids = list(enc["input_ids"])
+        labels, question = [], []
+        for tok, (a, b) in zip(ids, enc["offset_mapping"], strict=True):
+            in_answer = any(s <= a and b <= e for s, e in assistant_spans)
+            labels.append(tok if in_answer and tok != self.tactile_token_id else IGNORE_INDEX)
+            in_question = any(s <= a and b <= e for s, e in user_spans)
+            question.append(int(in_question and tok != self.tactile_token_id))
+        return _Encoded(ids, labels, question)
+
+    def _check_counts(self, texts: Sequence[str], videos: Sequence[Sequence[VideoInput]]) -> None:
+        if len(texts) != len(videos):
+            raise ValueError(f"{len(texts)} prompt(s) but {len(videos)} video list(s): give one list per prompt")
+        for i, (text, vids) in enumerate(zip(texts, videos, strict=True)):
+            n = text.count(PLACEHOLDER)
+            if n != len(vids):
+                raise ValueError(f"prompt {i} has {n} {PLACEHOLDER} placeholder(s) but {len(vids)} video(s) were "
+                                 f"given; put one {PLACEHOLDER} in the question per video")
+            if TACTILE_PAD in text:
+                raise ValueError(f"prompt {i} contains the internal token {TACTILE_PAD!r}; write {PLACEHOLDER} instead")
+
+    # ------------------------------------------------------------------ public entry points
+    def example(self, question: str, answer: str, videos: Sequence[VideoInput], *, system: str | None = None,
+                seed: int | None = None) -> dict[str, Any]:
+        """One training example: ids, labels (assistant only), question mask, and its videos."""
+        self._check_counts([question], [videos])
+        enc = self.encode_conversation(self.messages(question, answer, system), add_generation_prompt=False)
+        return {"input_ids": enc.input_ids, "labels": enc.labels, "question_mask": enc.question_mask,
+                **self.preprocess_videos(videos, seed=seed)}
+
+    def collate(self, examples: Sequence[dict[str, Any]], *, padding_side: str = "right") -> BatchFeature:
+        """Pad examples into one batch; videos are concatenated in sample order (what the model expects)."""
+        if not examples:
+            raise ValueError("cannot collate an empty batch")
+        width = max(len(e["input_ids"]) for e in examples)
+        pad_id = self.tokenizer.pad_token_id if self.tokenizer.pad_token_id is not None else 0
+        rows: dict[str, list[list[int]]] = {"input_ids": [], "attention_mask": [], "question_mask": [], "labels": []}
+        for e in examples:
+            n = len(e["input_ids"])
+            fill = width - n
+
+            def pad(seq: list[int], value: int, fill: int = fill) -> list[int]:
+                return seq + [value] * fill if padding_side == "right" else [value] * fill + seq
+
+            rows["input_ids"].append(pad(list(e["input_ids"]), pad_id))
+            rows["attention_mask"].append(pad([1] * n, 0))
+            rows["question_mask"].append(pad(list(e["question_mask"]), 0))
+            rows["labels"].append(pad(list(e.get("labels") or [IGNORE_INDEX] * n), IGNORE_INDEX))
+        batch = {k: torch.tensor(v, dtype=torch.long) for k, v in rows.items()}
+        if all("labels" not in e for e in examples):
+            del batch["labels"]
+        batch["pixel_values"] = torch.cat([e["pixel_values"] for e in examples])
+        batch["sensor_ids"] = torch.cat([e["sensor_ids"] for e in examples])
+        return BatchFeature(batch)
+
+    def prompt(self, question: str | Sequence[str], videos: Sequence[VideoInput] | Sequence[Sequence[VideoInput]],
+               *, system: str | None = None) -> BatchFeature:
+        """Inputs for ``generate``: one question (with its videos) or a batch of them, left-padded."""
+        questions = [question] if isinstance(question, str) else list(question)
+        video_lists = [list(videos)] if isinstance(question, str) else [list(v) for v in videos]
+        self._check_counts(questions, video_lists)
+        examples = []
+        for q, vids in zip(questions, video_lists, strict=True):
+            enc = self.encode_conversation(self.messages(q, None, system), add_generation_prompt=True)
+            examples.append({"input_ids": enc.input_ids, "question_mask": enc.question_mask,
+                             **self.preprocess_videos(vids)})
+        return self.collate(examples, padding_side="left")
+
+    def __call__(self, text: str | Sequence[str], videos: Sequence[VideoInput] | Sequence[Sequence[VideoInput]] = (),
+                 ) -> BatchFeature:
+        """Already-rendered text (``<tactile>`` placeholders kept) + videos → model inputs, no chat template."""
+        texts = [text] if isinstance(text, str) else list(text)
+        video_lists = [list(videos)] if isinstance(text, str) else [list(v) for v in videos]
+        self._check_counts(texts, video_lists)
+        examples = []
+        for t, vids in zip(texts, video_lists, strict=True):
+            ids = self.tokenizer(self.expand(t), add_special_tokens=False)["input_ids"]
+            examples.append({"input_ids": ids, "question_mask": [int(i != self.tactile_token_id) for i in ids],
+                             **self.preprocess_videos(vids)})
+        return self.collate(examples, padding_side="left")
+
+    # ------------------------------------------------------------------ save / load
+    def to_dict(self) -> dict[str, Any]:
+        return {"processor_class": type(self).__name__, "video": self.video_config.to_dict(),
+                "tokens_per_video": self.tokens_per_video, "sensor_types": list(self.sensor_types),
+                "system_prompt": self.system_prompt}
+
+    def save_pretrained(self, directory: str | os.PathLike[str], **kwargs: Any) -> None:
+        directory = Path(directory)
+        directory.mkdir(parents=True, exist_ok=True)
+        self.tokenizer.save_pretrained(directory)
+        (directory / PROCESSOR_CONFIG_NAME).write_text(json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8")
+
+    @classmethod
+    def from_pretrained(cls, directory: str | os.PathLike[str], **kwargs: Any) -> TacReasonerProcessor:
+        directory = Path(directory)
+        path = directory / PROCESSOR_CONFIG_NAME
+        if not path.is_file():
+            raise FileNotFoundError(f"{path}: no processor config (save one with TacReasonerProcessor.save_pretrained)")
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{path}: not valid JSON ({exc})") from exc
+        known = {"processor_class", "video", "tokens_per_video", "sensor_types", "system_prompt"}
+        if unknown := sorted(set(data) - known):
+            raise ValueError(f"{path}: unknown keys {unknown}; known: {', '.join(sorted(known))}")
+        tokenizer = AutoTokenizer.from_pretrained(directory)
+        return cls(tokenizer, VideoProcessingConfig.from_dict(data.get("video")),
+                   tokens_per_video=int(data.get("tokens_per_video", 5)),
+                   sensor_types=data.get("sensor_types", DEFAULT_SENSOR_TYPES), system_prompt=data.get("system_prompt"))

@@ -1,0 +1,149 @@
+"""Which parameters each training stage updates, in one place so the trainer and the tests agree.
+
+    Stage I  (alignment): temporal branch, fusion, sensor embedding, projector, and the embedding rows of
+                          tokens added to the LLM's vocabulary. LLM and appearance ViT frozen.
+    Stage II (SFT):       projector + LoRA on the LLM's attention projections. Whole tactile encoder frozen.
+
+The appearance branch is never trained here (it is pre-trained by ``pretrain-encoder``).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import torch
+from torch import nn
+
+from tacreasoner.fields import reject_unknown_fields
+from tacreasoner.model.modeling import TacReasonerForCausalLM
+
+__all__ = ["STAGES", "LoraSettings", "configure_stage", "load_adapter", "merge_adapter", "no_decay_parameter_names",
+           "trainable_parameter_names"]
+
+STAGES = (1, 2)
+DEFAULT_LORA_TARGETS = ("q_proj", "k_proj", "v_proj", "o_proj")
+
+
+@dataclass
+class LoraSettings:
+    """The paper's Stage II adapter: rank 128, alpha 256, dropout 0.05 on q/k/v/o."""
+
+    r: int = 128
+    alpha: int = 256
+    dropout: float = 0.05
+    target_modules: tuple[str, ...] = field(default=DEFAULT_LORA_TARGETS)
+
+    def __post_init__(self) -> None:
+        self.target_modules = tuple(self.target_modules)
+        if self.r < 1 or self.alpha <= 0:
+            raise ValueError(f"lora: r must be ≥ 1 and alpha > 0, got r={self.r}, alpha={self.alpha}")
+        if not 0 <= self.dropout < 1:
+            raise ValueError(f"lora: dropout must be in [0, 1), got {self.dropout}")
+        if not self.target_modules or not all(isinstance(t, str) and t.isidentifier() for t in self.target_modules):
+            raise ValueError(f"lora: target_modules must be module names like q_proj, got {self.target_modules!r}")
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any] | None) -> LoraSettings:
+        data = dict(data or {})
+        reject_unknown_fields(cls, data, "lora: unknown keys", known="declared")
+        return cls(**data)
+
+    def peft_config(self) -> Any:
+        from peft import LoraConfig
+
+        names = "|".join(self.target_modules)
+        # only the language model's projections: the tactile encoder has none of these names, but be explicit
+        return LoraConfig(r=self.r, lora_alpha=self.alpha, lora_dropout=self.dropout,
+                          target_modules=rf".*language_model\..*\.({names})", modules_to_save=["projector"])
+
+
+def _freeze(module: nn.Module) -> None:
+    for p in module.parameters():
+        p.requires_grad_(False)
+
+
+def _train(module: nn.Module | None) -> None:
+    if module is not None:
+        for p in module.parameters():
+            p.requires_grad_(True)
+
+
+def _train_new_rows(model: TacReasonerForCausalLM) -> None:
+    """Let only the added tokens' rows of the (input and output) embeddings learn, via a gradient mask.
+
+    The trainer must not apply weight decay to these matrices (decay would move the frozen rows);
+    :func:`no_decay_parameter_names` lists them.
+    """
+    ids = list(model.config.new_token_ids or [])
+    model._row_masked = set()
+    if not ids:
+        return
+    seen: set[int] = set()
+    for module in (model.get_input_embeddings(), model.get_output_embeddings()):
+        weight = getattr(module, "weight", None)
+        if weight is None or id(weight) in seen:
+            continue
+        seen.add(id(weight))
+        model._row_masked.add(id(weight))
+        mask = torch.zeros(weight.shape[0], 1, dtype=weight.dtype, device=weight.device)
+        mask[ids] = 1
+        weight.requires_grad_(True)
+        model._new_row_hooks.append(weight.register_hook(lambda grad, mask=mask: grad * mask.to(grad.dtype)))
+
+
+def configure_stage(model: TacReasonerForCausalLM, stage: int, lora: LoraSettings | None = None) -> nn.Module:
+    """Set ``requires_grad`` for ``stage`` and return the module to train (a PEFT model for Stage II)."""
+    if stage not in STAGES:
+        raise ValueError(f"stage must be one of {STAGES}, got {stage!r}")
+    _freeze(model)
+    for handle in getattr(model, "_new_row_hooks", []):
+        handle.remove()
+    model._new_row_hooks = []
+    encoder = model.tactile_encoder
+    if stage == 1:
+        for part in (encoder.temporal, encoder.fusion, encoder.sensor_embed, model.projector):
+            _train(part)
+        _train_new_rows(model)
+        return model
+    from peft import get_peft_model
+
+    peft_model = get_peft_model(model, (lora or LoraSettings()).peft_config())
+    return peft_model
+
+
+def no_decay_parameter_names(model: nn.Module) -> set[str]:
+    """Trainable parameters that must not be weight-decayed: biases, norms, and row-masked embeddings."""
+    masked: set[int] = set()
+    for module in model.modules():
+        masked |= getattr(module, "_row_masked", set())
+    names = set()
+    for name, p in model.named_parameters():
+        if p.requires_grad and (p.ndim < 2 or id(p) in masked or "norm" in name.lower()):
+            names.add(name)
+    return names
+
+
+def trainable_parameter_names(model: nn.Module) -> list[str]:
+    return [name for name, p in model.named_parameters() if p.requires_grad]
+
+
+def load_adapter(model: TacReasonerForCausalLM, adapter_dir: str | os.PathLike[str], *, trainable: bool = False) -> Any:
+    """A saved Stage II adapter (LoRA + projector) on top of ``model``."""
+    from peft import PeftModel
+
+    adapter_dir = Path(adapter_dir)
+    if not (adapter_dir / "adapter_config.json").is_file():
+        raise FileNotFoundError(f"{adapter_dir}: no adapter_config.json (save one with the Stage II model's "
+                                f"save_pretrained)")
+    return PeftModel.from_pretrained(model, adapter_dir, is_trainable=trainable)
+
+
+def merge_adapter(model: TacReasonerForCausalLM, adapter_dir: str | os.PathLike[str]) -> TacReasonerForCausalLM:
+    """Fold a Stage II adapter into the weights: one plain model, no PEFT needed to run it."""
+    merged = load_adapter(model, adapter_dir).merge_and_unload()
+    for _, p in merged.named_parameters():
+        p.requires_grad_(False)
+    return merged

@@ -1,0 +1,116 @@
+"""The dynamic-aware tactile encoder: frozen appearance ViT + temporal branch, fused by cross-attention.
+
+    F_app  = tokens_per_video tokens of the appearance ViT (CLS, then patch tokens pooled in t-h-w order)
+    F̄_temp = TemporalBranch(ΔI, question)
+    F_attn = CrossAttn(Q = F_app, K = V = F̄_temp)
+    F_enh  = FFN(F_attn) + F_app
+
+The FFN's last layer starts at zero, so an untrained fusion hands the appearance tokens through
+unchanged and Stage I starts from what the appearance branch already knows.
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+from torch.nn import functional as F
+
+from tacreasoner.model.appearance import AppearanceEncoder
+from tacreasoner.model.encoder_config import TactileEncoderConfig
+from tacreasoner.model.temporal import TemporalBranch
+
+__all__ = ["CrossAttentionFusion", "DynamicTactileEncoder", "TactileProjector"]
+
+
+class CrossAttentionFusion(nn.Module):
+    def __init__(self, hidden: int, heads: int, mlp_ratio: float) -> None:
+        super().__init__()
+        self.norm_q = nn.LayerNorm(hidden)
+        self.norm_kv = nn.LayerNorm(hidden)
+        self.attn = nn.MultiheadAttention(hidden, heads, batch_first=True)
+        inner = int(hidden * mlp_ratio)
+        self.ffn = nn.Sequential(nn.LayerNorm(hidden), nn.Linear(hidden, inner), nn.GELU(), nn.Linear(inner, hidden))
+        self.ffn[-1].zero_init = True  # read by the model's _init_weights too
+        self.reset_output()
+
+    def reset_output(self) -> None:
+        nn.init.zeros_(self.ffn[-1].weight)
+        nn.init.zeros_(self.ffn[-1].bias)
+
+    def forward(self, appearance: torch.Tensor, temporal: torch.Tensor) -> torch.Tensor:
+        kv = self.norm_kv(temporal)
+        attended, _ = self.attn(self.norm_q(appearance), kv, kv, need_weights=False)
+        return self.ffn(attended) + appearance
+
+
+class TactileProjector(nn.Module):
+    """E_V = W2·GELU(W1·F_enh + b1) + b2, into the LLM's embedding size."""
+
+    def __init__(self, in_dim: int, out_dim: int) -> None:
+        super().__init__()
+        self.linear_1 = nn.Linear(in_dim, out_dim)
+        self.act = nn.GELU()
+        self.linear_2 = nn.Linear(out_dim, out_dim)
+
+    def forward(self, features: torch.Tensor) -> torch.Tensor:
+        return self.linear_2(self.act(self.linear_1(features)))
+
+
+class DynamicTactileEncoder(nn.Module):
+    """pixel_values V×T×3×H×W → V×tokens_per_video×hidden_size; see the module docstring."""
+
+    def __init__(self, config: TactileEncoderConfig, question_dim: int) -> None:
+        super().__init__()
+        self.config = config
+        self.appearance = AppearanceEncoder(config)
+        if config.use_temporal:
+            self.temporal = TemporalBranch(config, question_dim)
+            self.fusion = CrossAttentionFusion(config.hidden_size, config.fusion_heads, config.mlp_ratio)
+        else:
+            self.temporal = None
+            self.fusion = None
+        self.sensor_embed = nn.Embedding(len(config.sensor_types), config.hidden_size) \
+            if config.sensor_embedding else None
+
+    @property
+    def hidden_size(self) -> int:
+        return self.config.hidden_size
+
+    def appearance_tokens(self, pixel_values: torch.Tensor) -> torch.Tensor:
+        """F_app: CLS plus ``tokens_per_video − 1`` patch tokens average-pooled in t-h-w order."""
+        trainable = any(p.requires_grad for p in self.appearance.parameters())
+        with torch.set_grad_enabled(trainable and torch.is_grad_enabled()):
+            tokens = self.appearance(pixel_values)
+        n = self.config.tokens_per_video
+        if n == 1:
+            return tokens[:, :1]
+        patches = F.adaptive_avg_pool1d(tokens[:, 1:].transpose(1, 2), n - 1).transpose(1, 2)
+        return torch.cat([tokens[:, :1], patches], dim=1)
+
+    def forward(self, pixel_values: torch.Tensor, question: torch.Tensor | None = None,
+                sensor_ids: torch.Tensor | None = None, appearance: torch.Tensor | None = None) -> torch.Tensor:
+        """``appearance``: F_app computed earlier by :meth:`appearance_tokens` (the branch is frozen, so a
+        trainer may cache it per clip and skip the ViT; the temporal branch still reads ``pixel_values``)."""
+        self._check_input(pixel_values)
+        if appearance is None:
+            features = self.appearance_tokens(pixel_values)
+        else:
+            expected = (len(pixel_values), self.config.tokens_per_video, self.config.hidden_size)
+            if tuple(appearance.shape) != expected:
+                raise ValueError(f"appearance tokens must be {'×'.join(map(str, expected))} "
+                                 f"(videos×tokens_per_video×hidden), got {tuple(appearance.shape)}")
+            features = appearance.to(pixel_values.dtype)
+        if self.temporal is not None:
+            features = self.fusion(features, self.temporal(pixel_values, question))
+        if self.sensor_embed is not None:
+            if sensor_ids is None:
+                sensor_ids = torch.zeros(len(pixel_values), dtype=torch.long, device=pixel_values.device)
+            features = features + self.sensor_embed(sensor_ids).unsqueeze(1)
+        return features
+
+    def _check_input(self, pixel_values: torch.Tensor) -> None:
+        c = self.config
+        expected = (c.num_frames, 3, *c.image_size)
+        if pixel_values.ndim != 5 or tuple(pixel_values.shape[1:]) != expected:
+            raise ValueError(f"pixel_values must be videos×{'×'.join(map(str, expected))} "
+                             f"(frames×channels×height×width from the processor), got {tuple(pixel_values.shape)}")

@@ -1,0 +1,114 @@
+"""Turn a tactile clip (or raw frames, or a video file) into the encoder's input, the same way everywhere.
+
+Training, pre-training, evaluation and serving all call :func:`preprocess_video`, so a model never
+sees frames prepared differently from the ones it was trained on. Pure numpy: no torch needed.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from tacreasoner.data.clip import TactileClip
+from tacreasoner.data.sampling import (
+    RESIZE_MODES,
+    SAMPLING_METHODS,
+    background_frame,
+    resize_keep_aspect,
+    sample_indices,
+    subtract_background,
+)
+from tacreasoner.fields import reject_unknown_fields
+
+__all__ = ["VideoInput", "VideoProcessingConfig", "preprocess_video", "sensor_of"]
+
+VideoInput = TactileClip | np.ndarray | str | os.PathLike
+"""A clip, T×H×W×3 uint8 frames, or a path to a video file."""
+
+
+@dataclass
+class VideoProcessingConfig:
+    """How frames are chosen and normalised; saved in ``processor_config.json`` next to the model."""
+
+    num_frames: int = 8
+    image_size: tuple[int, int] = (64, 64)
+    sampling: str = "uniform"
+    resize_mode: str = "fit"
+    mean: float = 0.5
+    """Background-subtracted frames are 0.5 where nothing touches; this centres them on 0."""
+    std: float = 0.1
+    """Imprints change pixels by a few percent; dividing by a small std gives the ViT unit-scale input."""
+
+    def __post_init__(self) -> None:
+        self.image_size = tuple(int(v) for v in self.image_size)  # type: ignore[assignment]
+        if self.num_frames < 1:
+            raise ValueError(f"video processing: num_frames must be ≥ 1, got {self.num_frames}")
+        if len(self.image_size) != 2 or min(self.image_size) < 1:
+            raise ValueError(f"video processing: image_size must be (height, width), got {self.image_size!r}")
+        if self.sampling not in SAMPLING_METHODS:
+            raise ValueError(f"video processing: sampling {self.sampling!r} is not one of "
+                             f"{', '.join(SAMPLING_METHODS)}")
+        if self.resize_mode not in RESIZE_MODES:
+            raise ValueError(f"video processing: resize_mode {self.resize_mode!r} is not one of "
+                             f"{', '.join(RESIZE_MODES)}")
+        if self.std <= 0:
+            raise ValueError(f"video processing: std must be > 0, got {self.std}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"num_frames": self.num_frames, "image_size": list(self.image_size), "sampling": self.sampling,
+                "resize_mode": self.resize_mode, "mean": self.mean, "std": self.std}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any] | None) -> VideoProcessingConfig:
+        data = dict(data or {})
+        reject_unknown_fields(cls, data, "video processing config: unknown keys", known="declared")
+        return cls(**data)
+
+
+def sensor_of(video: VideoInput) -> str:
+    """The sensor style of a clip ('unknown' for bare frames or files)."""
+    return video.sensor if isinstance(video, TactileClip) else "unknown"
+
+
+def _frames_and_phases(video: VideoInput) -> tuple[np.ndarray, Sequence[str] | None, str]:
+    if isinstance(video, TactileClip):
+        return video.frames, video.phases, f"clip {video.clip_id!r}"
+    if isinstance(video, str | os.PathLike):
+        from tacreasoner.data.readers import read_video_clip
+
+        clip = read_video_clip(Path(video))
+        return clip.frames, None, f"video {os.fspath(video)!r}"
+    frames = np.asarray(video)
+    return frames, None, "frames"
+
+
+def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = None, *,
+                     seed: int | None = None) -> np.ndarray:
+    """num_frames×3×H×W float32: sampled, resized keeping aspect, background-subtracted, normalised.
+
+    The background is the clip's first no-contact frame (first frame when phases are unknown).
+    ``seed`` jitters which frame is taken inside each sampling segment (training augmentation).
+    """
+    config = config or VideoProcessingConfig()
+    frames, phases, what = _frames_and_phases(video)
+    if frames.ndim != 4 or frames.shape[-1] != 3 or frames.dtype != np.uint8:
+        raise ValueError(f"{what}: expected uint8 frames T×H×W×3, got {frames.dtype} {tuple(frames.shape)}")
+    if len(frames) == 0:
+        raise ValueError(f"{what}: has no frames")
+    method = config.sampling
+    if method == "phase" and phases is None:
+        method = "uniform"  # real video without a phase track: fall back rather than fail mid-batch
+    idx = sample_indices(len(frames), config.num_frames, method, frames=frames if method == "salient" else None,
+                         phases=phases if method == "phase" else None, seed=seed)
+    background = background_frame(frames, phases)
+    chosen = resize_keep_aspect(np.concatenate([background[None], frames[idx]]), *config.image_size,
+                                mode=config.resize_mode)
+    out = subtract_background(chosen[1:], chosen[0])
+    out -= config.mean
+    out /= config.std
+    return np.ascontiguousarray(out.transpose(0, 3, 1, 2))

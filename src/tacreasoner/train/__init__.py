@@ -1,0 +1,1 @@
+"""Training loops: encoder and LLM pre-training, Stage I alignment, Stage II SFT."""

@@ -1,0 +1,372 @@
+"""Pre-train the appearance branch by masked video reconstruction on any tactile video (no labels needed).
+
+Read top to bottom: gather clips → preprocess each clip once into a few jittered samples held in
+memory (decoding is the slow part on CPU, so it is never repeated per step) → train
+:class:`~tacreasoner.model.masked_video.MaskedVideoModel` with AdamW and a warmup + cosine schedule,
+checkpointing atomically → save the encoder with ``save_pretrained``.
+
+Every step's batch, flips and mask are drawn from a generator seeded by (seed, step), so a resumed
+run draws exactly what the uninterrupted run would have drawn.
+
+Output directory::
+
+    config.json, model.safetensors   the AppearanceEncoder (AppearanceEncoder.from_pretrained)
+    video_processing.json            the VideoProcessingConfig its inputs were prepared with
+    pretrain_config.json             settings of the run (encoder, decoder, optimisation, data counts)
+    pretrain_log.jsonl               {"step", "loss", "lr", "elapsed_s"} every log_every steps
+    checkpoints/step-<n>/            resumable training state (encoder + decoder + optimizer)
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Iterable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from tacreasoner.data.clip import TactileClip
+from tacreasoner.model.appearance import AppearanceEncoder
+from tacreasoner.model.encoder_config import TactileEncoderConfig
+from tacreasoner.model.masked_video import MaskedVideoConfig, MaskedVideoModel, tube_mask
+from tacreasoner.model.video_processing import VideoProcessingConfig, preprocess_video
+from tacreasoner.train.state import cosine_with_warmup, latest_checkpoint, load_checkpoint, save_checkpoint
+
+__all__ = ["DEFAULTS", "PretrainDefaults", "free_threads", "gather_pretraining_clips", "preprocess_clips",
+           "pretrain_encoder", "video_config_for"]
+
+CHECKPOINTS = "checkpoints"
+LOG_NAME = "pretrain_log.jsonl"
+VIDEO_CONFIG_NAME = "video_processing.json"
+RUN_CONFIG_NAME = "pretrain_config.json"
+VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".mkv", ".webm")
+
+
+@dataclass(frozen=True)
+class PretrainDefaults:
+    """Chosen so the default run takes ~3 minutes on 2 CPU cores (see docs/encoder-pretraining.md)."""
+
+    steps: int = 1000
+    batch_size: int = 32
+    lr: float = 1e-3
+    mask_ratio: float = 0.9
+    samples_per_clip: int = 4
+    weight_decay: float = 0.05
+    warmup_ratio: float = 0.05
+
+
+DEFAULTS = PretrainDefaults()
+
+
+# ---------------------------------------------------------------------------------------------- data
+
+
+def gather_pretraining_clips(paths: Iterable[str | os.PathLike[str]] = (), *, physiclear: bool = True,
+                             min_frames: int = 8) -> tuple[list[TactileClip], list[str]]:
+    """Clips from simulator datasets (a directory with ``manifest.jsonl``), video files and folders of videos,
+    plus every PhysiCLeAR clip (all splits: labels are not used) when ``physiclear`` and it is present.
+
+    Returns the clips and one line per source saying what was taken.
+    """
+    from tacreasoner.data.readers import default_physiclear_dir, load_clips, read_physiclear, read_sim_dataset
+
+    clips: list[TactileClip] = []
+    notes: list[str] = []
+    for raw in paths:
+        path = Path(raw)
+        if path.is_dir() and (path / "manifest.jsonl").is_file():
+            found = list(read_sim_dataset(path, min_frames=min_frames))
+            notes.append(f"{path}: {len(found)} simulated clips")
+        elif path.is_dir():
+            videos = sorted(p for p in path.rglob("*") if p.is_file() and p.suffix.lower() in VIDEO_SUFFIXES)
+            if not videos:
+                raise ValueError(f"{path}: no simulator manifest.jsonl and no video files "
+                                 f"({', '.join(VIDEO_SUFFIXES)}) inside")
+            report = load_clips(videos, min_frames=min_frames)
+            found = list(report.clips)
+            notes.append(f"{path}: {len(found)} of {len(videos)} videos" +
+                         (f" ({len(report.skipped)} skipped)" if report.skipped else ""))
+        elif path.is_file():
+            report = load_clips([path], on_error="raise", min_frames=min_frames)
+            found = list(report.clips)
+            notes.append(f"{path}: 1 video")
+        else:
+            raise FileNotFoundError(f"{path}: no such file or directory")
+        clips += found
+    if physiclear:
+        root = default_physiclear_dir()
+        if root is None:
+            notes.append("PhysiCLeAR: not found (set TACREASONER_PHYSICLEAR); skipped")
+        else:
+            found = list(read_physiclear(root, min_frames=min_frames))
+            clips += found
+            notes.append(f"PhysiCLeAR {root}: {len(found)} real clips (all splits; labels unused)")
+    return clips, notes
+
+
+def video_config_for(encoder_config: TactileEncoderConfig,
+                     video_config: VideoProcessingConfig | None = None) -> VideoProcessingConfig:
+    """The processing config for this encoder; a given one must produce its input shape."""
+    if video_config is None:
+        return VideoProcessingConfig(num_frames=encoder_config.num_frames, image_size=encoder_config.image_size)
+    if (video_config.num_frames, tuple(video_config.image_size)) != (encoder_config.num_frames,
+                                                                     tuple(encoder_config.image_size)):
+        raise ValueError(f"video processing makes {video_config.num_frames} frames of {tuple(video_config.image_size)} "
+                         f"but the encoder takes {encoder_config.num_frames} of {tuple(encoder_config.image_size)}")
+    return video_config
+
+
+def _preprocess_one(job: tuple[TactileClip, VideoProcessingConfig, list[int], bool]) -> np.ndarray:
+    clip, config, seeds, drop_cache = job
+    try:
+        out = np.stack([preprocess_video(clip, config, seed=s) for s in seeds]).astype(np.float16)
+    except ValueError as exc:
+        raise ValueError(f"clip {clip.clip_id!r}: {exc}") from None
+    if drop_cache:  # worker process: each clip is decoded once, keeping it would only hold memory
+        from tacreasoner.data.cache import clear_cache
+
+        clear_cache()
+    return out
+
+
+def preprocess_clips(clips: Sequence[TactileClip], config: VideoProcessingConfig, samples_per_clip: int,
+                     seed: int, *, workers: int = 1, progress: Any = None) -> torch.Tensor:
+    """(len(clips)·samples_per_clip)×T×3×H×W float16: every clip decoded once, sampled with different frame jitter.
+
+    float16 halves the memory (1000 clips × 4 samples at 8×64×64 ≈ 0.8 GB); the values are normalised
+    pixels, well inside its range and precision.
+    """
+    jobs = [(clip, config, [seed * 1_000_003 + i * samples_per_clip + k for k in range(samples_per_clip)],
+             workers > 1) for i, clip in enumerate(clips)]
+    out = np.empty((len(clips) * samples_per_clip, config.num_frames, 3, *config.image_size), np.float16)
+
+    def place(i: int, arr: np.ndarray) -> None:
+        out[i * samples_per_clip:(i + 1) * samples_per_clip] = arr
+        if progress is not None:
+            progress(i + 1)
+
+    if workers > 1 and len(clips) > 1:
+        import multiprocessing
+
+        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+            for i, arr in enumerate(pool.map(_preprocess_one, jobs, chunksize=4)):
+                place(i, arr)
+    else:
+        for i, job in enumerate(jobs):
+            place(i, _preprocess_one(job))
+    return torch.from_numpy(out)
+
+
+# ---------------------------------------------------------------------------------------------- training
+
+
+def free_threads() -> int:
+    """torch's thread count minus the cores other processes keep busy (1-minute load average).
+
+    Tiny matrices make every op wait for its slowest thread: 2 threads on 2 cores next to another
+    busy process train several times slower than 1 thread (pretrain_llm.auto_threads measured the same).
+    """
+    try:
+        busy = os.getloadavg()[0]
+    except OSError:
+        busy = 0.0
+    return max(1, min(torch.get_num_threads(), int((os.cpu_count() or 1) - busy + 0.5)))
+
+
+def _batch(data: torch.Tensor, seed: int, step: int, batch_size: int, grid: tuple[int, int, int],
+           mask_ratio: float) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The step's samples (randomly flipped), keep and mask indices: a pure function of (seed, step)."""
+    rng = np.random.default_rng([seed, step])
+    idx = rng.choice(len(data), size=batch_size, replace=len(data) < batch_size)
+    x = data[torch.from_numpy(idx)].float()
+    flips = rng.random((batch_size, 2)) < 0.5
+    for dim, column in ((-1, 0), (-2, 1)):
+        chosen = torch.from_numpy(np.flatnonzero(flips[:, column]))
+        if len(chosen):
+            x[chosen] = x[chosen].flip(dim)
+    generator = torch.Generator().manual_seed(int(rng.integers(2**62)))
+    keep, mask = tube_mask(batch_size, grid, mask_ratio, generator=generator)
+    return x, keep, mask
+
+
+def _optimizer(model: torch.nn.Module, lr: float, weight_decay: float) -> torch.optim.AdamW:
+    """AdamW (MAE's betas); no decay on biases, norms, CLS and mask tokens."""
+    decay, no_decay = [], []
+    for name, param in model.named_parameters():
+        (no_decay if param.ndim < 2 or name.endswith(("cls_token", "mask_token")) else decay).append(param)
+    return torch.optim.AdamW([{"params": decay, "weight_decay": weight_decay},
+                              {"params": no_decay, "weight_decay": 0.0}], lr=lr, betas=(0.9, 0.95))
+
+
+class _Bar:
+    """A rich progress bar on stderr (or nothing)."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.progress = None
+        if enabled:
+            from rich.console import Console
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+            self.progress = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                                     TextColumn("{task.fields[info]}"), TimeElapsedColumn(),
+                                     console=Console(stderr=True))
+            self.progress.start()
+        self.task = None
+
+    def stage(self, description: str, total: int, done: int = 0) -> None:
+        if self.progress is not None:
+            if self.task is not None:
+                self.progress.stop_task(self.task)
+            self.task = self.progress.add_task(description, total=total, completed=done, info="")
+
+    def update(self, done: int, info: str = "") -> None:
+        if self.progress is not None and self.task is not None:
+            self.progress.update(self.task, completed=done, info=info)
+
+    def close(self) -> None:
+        if self.progress is not None:
+            self.progress.stop()
+
+
+def pretrain_encoder(
+    clips: Sequence[TactileClip],
+    out_dir: str | os.PathLike[str],
+    *,
+    encoder_config: TactileEncoderConfig | None = None,
+    video_config: VideoProcessingConfig | None = None,
+    steps: int = DEFAULTS.steps,
+    batch_size: int = DEFAULTS.batch_size,
+    lr: float = DEFAULTS.lr,
+    mask_ratio: float = DEFAULTS.mask_ratio,
+    seed: int = 0,
+    resume: bool = False,
+    progress: bool = True,
+    masked_config: MaskedVideoConfig | None = None,
+    samples_per_clip: int = DEFAULTS.samples_per_clip,
+    weight_decay: float = DEFAULTS.weight_decay,
+    warmup_ratio: float = DEFAULTS.warmup_ratio,
+    workers: int | None = None,
+    threads: int | None = None,
+    log_every: int = 10,
+    checkpoint_every: int | None = None,
+) -> Path:
+    """Masked-video pre-training of an AppearanceEncoder on ``clips``; returns ``out_dir`` (see the module doc).
+
+    ``resume``: continue from the newest checkpoint in ``out_dir/checkpoints`` (a fresh start when
+    there is none; nothing to do when it already reached ``steps``). Without it, a directory holding
+    checkpoints is refused rather than overwritten. ``mask_ratio`` overrides ``masked_config``'s.
+    ``threads=None`` leaves out cores that other processes keep busy (the torch setting is restored after).
+    """
+    out = Path(out_dir)
+    encoder_config = encoder_config or TactileEncoderConfig()
+    video_config = video_config_for(encoder_config, video_config)
+    masked_config = MaskedVideoConfig.from_dict({**(masked_config or MaskedVideoConfig()).to_dict(),
+                                                 "mask_ratio": mask_ratio})
+    for name, value in (("steps", steps), ("batch_size", batch_size), ("samples_per_clip", samples_per_clip),
+                        ("log_every", log_every)):
+        if int(value) < 1:
+            raise ValueError(f"pretrain_encoder: {name} must be ≥ 1, got {value}")
+    if lr <= 0:
+        raise ValueError(f"pretrain_encoder: lr must be > 0, got {lr}")
+    if not clips:
+        raise ValueError("pretrain_encoder: no clips to pre-train on")
+    checkpoint_every = checkpoint_every or max(50, steps // 4)
+    workers = min(2, os.cpu_count() or 1) if workers is None else max(1, int(workers))
+    run = {"encoder": encoder_config.to_dict(), "masked_video": masked_config.to_dict(),
+           "video_processing": video_config.to_dict(), "batch_size": batch_size, "lr": lr, "seed": seed,
+           "samples_per_clip": samples_per_clip, "weight_decay": weight_decay, "warmup_ratio": warmup_ratio}
+
+    ckpt_dir = out / CHECKPOINTS
+    latest = latest_checkpoint(ckpt_dir) if ckpt_dir.is_dir() else None
+    if latest is not None and not resume:
+        raise ValueError(f"{out} already holds pre-training checkpoints ({latest.name}): resume them "
+                         "(--resume / resume=True) or choose another output directory")
+
+    torch.manual_seed(seed)
+    model = MaskedVideoModel(AppearanceEncoder(encoder_config), masked_config)
+    optimizer = _optimizer(model, lr, weight_decay)
+    scheduler = cosine_with_warmup(optimizer, max(1, round(warmup_ratio * steps)), steps)
+    start = 0
+    if latest is not None:
+        weights, state = load_checkpoint(latest, optimizer, scheduler)
+        saved = state.extra.get("run", {})
+        changed = sorted(k for k in run if saved.get(k) != run[k])
+        if changed:
+            raise ValueError(f"{latest}: was made with different settings ({', '.join(changed)}): resume with the "
+                             f"settings in {out / RUN_CONFIG_NAME} or choose another output directory")
+        model.load_state_dict(weights)
+        start = state.step
+
+    out.mkdir(parents=True, exist_ok=True)
+    bar = _Bar(progress)
+    t0 = time.perf_counter()
+    threads_before = torch.get_num_threads()
+    torch.set_num_threads(free_threads() if threads is None else max(1, int(threads)))
+    try:
+        data = None
+        if start < steps:
+            bar.stage("preprocessing clips", len(clips))
+            data = preprocess_clips(clips, video_config, samples_per_clip, seed, workers=workers,
+                                    progress=bar.update)
+        t_pre = time.perf_counter() - t0
+        (out / RUN_CONFIG_NAME).write_text(json.dumps({**run, "steps": steps, "n_clips": len(clips),
+                                                       "n_samples": len(clips) * samples_per_clip},
+                                                      indent=2) + "\n", encoding="utf-8")
+        if data is not None:
+            _train(model, optimizer, scheduler, data, out, run, start, steps, batch_size, seed, log_every,
+                   checkpoint_every, bar, t_pre)
+    finally:
+        bar.close()
+        torch.set_num_threads(threads_before)
+    model.encoder.save_pretrained(out)
+    (out / VIDEO_CONFIG_NAME).write_text(json.dumps(video_config.to_dict(), indent=2) + "\n", encoding="utf-8")
+    return out
+
+
+def _train(model: MaskedVideoModel, optimizer: torch.optim.Optimizer, scheduler: Any, data: torch.Tensor, out: Path,
+           run: dict, start: int, steps: int, batch_size: int, seed: int, log_every: int, checkpoint_every: int,
+           bar: _Bar, t_pre: float) -> None:
+    grid, ratio = model.encoder.config.grid, model.config.mask_ratio
+    bar.stage("pre-training encoder", steps, start)
+    model.train()
+    window: list[float] = []
+    t_start = time.perf_counter()
+    _truncate_log(out / LOG_NAME, start)
+    with (out / LOG_NAME).open("a", encoding="utf-8") as log_file:
+        for step in range(start, steps):
+            x, keep, mask = _batch(data, seed, step, batch_size, grid, ratio)
+            loss = model(x, keep, mask).loss
+            optimizer.zero_grad(set_to_none=True)
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+            optimizer.step()
+            scheduler.step()
+            window.append(loss.item())
+            done = step + 1
+            if done % log_every == 0 or done == steps:
+                record = {"step": done, "loss": round(float(np.mean(window)), 5),
+                          "lr": float(optimizer.param_groups[0]["lr"]),
+                          "elapsed_s": round(time.perf_counter() - t_start, 2), "preprocess_s": round(t_pre, 2)}
+                log_file.write(json.dumps(record) + "\n")
+                log_file.flush()
+                bar.update(done, f"loss {record['loss']:.4f}")
+                window = []
+            if done % checkpoint_every == 0 or done == steps:
+                save_checkpoint(out / CHECKPOINTS, done, model.state_dict(), optimizer, scheduler,
+                                extra={"run": run})
+    model.eval()
+
+
+def _truncate_log(path: Path, step: int) -> None:
+    """Drop log records after the checkpoint being resumed (they are about to be redone)."""
+    if not path.is_file():
+        return
+    kept = [line for line in path.read_text(encoding="utf-8").splitlines()
+            if line.strip() and json.loads(line).get("step", 0) <= step]
+    path.write_text("".join(line + "\n" for line in kept), encoding="utf-8")

@@ -1,0 +1,186 @@
+"""TacReasonerForCausalLM: shapes, placeholder errors, question conditioning, ablation switches, save/load."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+import torch
+from tinymodel import ENCODER, TACTILE_ID, batch, prompt, tiny_model, videos
+
+from tacreasoner.model.modeling import TacReasonerForCausalLM
+
+
+@pytest.mark.parametrize("tokens_per_video", [1, 3])
+def test_one_to_three_videos_per_prompt(tokens_per_video: int) -> None:
+    model = tiny_model(tokens_per_video=tokens_per_video)
+    prompts = [prompt(k, tokens_per_video) for k in (1, 2, 3)]
+    inputs = batch(prompts)
+    pixel_values = videos(6)
+    out = model(**inputs, pixel_values=pixel_values, labels=inputs["input_ids"])
+    assert out.logits.shape == (3, inputs["input_ids"].shape[1], 300)
+    assert torch.isfinite(out.loss)
+    tactile = model.encode_videos(pixel_values, torch.zeros(6, 64))
+    assert tactile.shape == (6, tokens_per_video, 64)
+
+
+def test_tactile_embeddings_land_on_the_placeholders_in_video_order() -> None:
+    model = tiny_model(question_conditioning=False)
+    inputs = batch([prompt(1), prompt(2)])
+    pixel_values = videos(3)
+    embeds = model.embed_inputs(inputs["input_ids"], pixel_values, inputs["attention_mask"])
+    expected = model.encode_videos(pixel_values)
+    tpv = ENCODER["tokens_per_video"]
+    first = (inputs["input_ids"][0] == TACTILE_ID).nonzero().flatten()
+    second = (inputs["input_ids"][1] == TACTILE_ID).nonzero().flatten()
+    assert torch.allclose(embeds[0, first], expected[0])
+    assert torch.allclose(embeds[1, second[:tpv]], expected[1])
+    assert torch.allclose(embeds[1, second[tpv:]], expected[2])
+    text = model.get_input_embeddings()(inputs["input_ids"])
+    keep = inputs["input_ids"] != TACTILE_ID
+    assert torch.equal(embeds[keep], text[keep])
+
+
+def test_placeholder_and_video_mismatch_is_a_clear_error() -> None:
+    model = tiny_model()
+    inputs = batch([prompt(2)])
+    with pytest.raises(ValueError, match=r"2 tactile placeholder\(s\).*but 1 video\(s\)"):
+        model(**inputs, pixel_values=videos(1))
+    with pytest.raises(ValueError, match=r"but 0 video"):
+        model(**inputs)
+    broken = batch([[11, TACTILE_ID, TACTILE_ID, 12]])  # a run of 2 with 3 tokens per video
+    with pytest.raises(ValueError, match="not a multiple of tokens_per_video=3"):
+        model(**broken, pixel_values=videos(1))
+    with pytest.raises(ValueError, match="pixel_values must be videos×4×3×32×32"):
+        model(**batch([prompt(1)]), pixel_values=torch.zeros(1, 5, 3, 32, 32))
+
+
+def _tactile_rows(model: TacReasonerForCausalLM, question: list[int]) -> torch.Tensor:
+    inputs = batch([prompt(1, question=question)])
+    embeds = model.embed_inputs(inputs["input_ids"], videos(1, seed=4), inputs["attention_mask"])
+    return embeds[inputs["input_ids"] == TACTILE_ID]
+
+
+def _train_fusion_a_little(model: TacReasonerForCausalLM) -> None:
+    # The fusion FFN starts at zero (appearance passes straight through); give it weights as training would.
+    torch.manual_seed(1)
+    torch.nn.init.normal_(model.tactile_encoder.fusion.ffn[-1].weight, std=0.2)
+
+
+def test_the_question_steers_the_temporal_aggregation_only_when_conditioning_is_on() -> None:
+    on = tiny_model(question_conditioning=True)
+    _train_fusion_a_little(on)
+    with torch.no_grad():
+        a, b = _tactile_rows(on, [40, 41, 42]), _tactile_rows(on, [90, 91, 92])
+    assert not torch.allclose(a, b, atol=1e-5)
+    off = tiny_model(question_conditioning=False)
+    _train_fusion_a_little(off)
+    with torch.no_grad():
+        a, b = _tactile_rows(off, [40, 41, 42]), _tactile_rows(off, [90, 91, 92])
+    assert torch.equal(a, b)
+
+
+def test_the_temporal_branch_sees_motion_and_can_be_switched_off() -> None:
+    with_temporal = tiny_model()
+    _train_fusion_a_little(with_temporal)
+    still = videos(1).expand(1, 4, 3, 32, 32).clone()
+    still[:, :] = still[:, :1]  # every frame the same: no differences
+    moving = still.clone()
+    moving[:, 2:] += 0.5
+    q = torch.zeros(1, 64)
+    with torch.no_grad():
+        app_still = with_temporal.tactile_encoder.appearance_tokens(still)
+        fused_still = with_temporal.tactile_encoder(still, q)
+        fused_moving = with_temporal.tactile_encoder(moving, q)
+        app_moving = with_temporal.tactile_encoder.appearance_tokens(moving)
+    # what the fusion adds differs when only the motion differs
+    assert not torch.allclose(fused_moving - app_moving, fused_still - app_still, atol=1e-5)
+    without = tiny_model(use_temporal=False)
+    assert without.tactile_encoder.temporal is None and without.tactile_encoder.fusion is None
+    assert not any("temporal" in n or "fusion" in n for n, _ in without.named_parameters())
+    with torch.no_grad():
+        assert torch.equal(without.tactile_encoder(moving), without.tactile_encoder.appearance_tokens(moving))
+
+
+def test_sensor_embedding_is_optional_and_changes_the_tokens_by_sensor() -> None:
+    model = tiny_model(sensor_embedding=True)
+    torch.nn.init.normal_(model.tactile_encoder.sensor_embed.weight)
+    pv = videos(1).repeat(2, 1, 1, 1, 1)
+    with torch.no_grad():
+        out = model.tactile_encoder(pv, torch.zeros(2, 64), torch.tensor([1, 2]))
+    assert not torch.allclose(out[0], out[1])
+    assert tiny_model().tactile_encoder.sensor_embed is None
+
+
+def test_save_then_load_gives_identical_logits(tmp_path) -> None:
+    model = tiny_model(sensor_embedding=True)
+    _train_fusion_a_little(model)
+    model.save_pretrained(tmp_path)
+    loaded = TacReasonerForCausalLM.from_pretrained(tmp_path).eval()
+    inputs = batch([prompt(2), prompt(1)])
+    pv = videos(3)
+    with torch.no_grad():
+        assert torch.equal(model(**inputs, pixel_values=pv).logits, loaded(**inputs, pixel_values=pv).logits)
+    assert loaded.config.encoder == model.config.encoder
+
+
+def test_generate_returns_only_new_tokens_and_uses_the_tactile_prompt() -> None:
+    model = tiny_model()
+    inputs = batch([prompt(1)])
+    out = model.generate(**inputs, pixel_values=videos(1), max_new_tokens=4, do_sample=False, pad_token_id=0)
+    assert out.shape == (1, 4)
+    with torch.no_grad():
+        first = model(**inputs, pixel_values=videos(1)).logits[0, -1].argmax()
+    assert int(out[0, 0]) == int(first)
+    with pytest.raises(ValueError, match="placeholder"):
+        model.generate(**inputs, pixel_values=videos(2), max_new_tokens=2)
+
+
+def test_wraps_a_causal_lm_saved_to_disk_without_changing_its_text_path(tmp_path) -> None:
+    """The code path a real Qwen2.5 checkpoint takes, with a tiny Qwen2 saved to disk."""
+    from transformers import Qwen2Config, Qwen2ForCausalLM
+
+    torch.manual_seed(0)
+    llm = Qwen2ForCausalLM(Qwen2Config(hidden_size=64, num_hidden_layers=2, num_attention_heads=4,
+                                       num_key_value_heads=2, intermediate_size=128, vocab_size=280)).eval()
+    llm.save_pretrained(tmp_path / "llm")
+    model = TacReasonerForCausalLM.from_llm(tmp_path / "llm", tactile_token_id=TACTILE_ID, vocab_size=300,
+                                             new_token_ids=list(range(280, 300)), encoder=ENCODER).eval()
+    assert model.get_input_embeddings().num_embeddings == 300
+    text = torch.tensor([[5, 6, 7, 8]])
+    with torch.no_grad():
+        assert torch.allclose(model(input_ids=text).logits[..., :280], llm(input_ids=text).logits, atol=1e-5)
+    assert model.config.new_token_ids == list(range(280, 300))
+
+
+def test_auto_classes_know_tacreasoner_after_import_tacreasoner(tmp_path) -> None:
+    tiny_model().save_pretrained(tmp_path)
+    for order in ("import tacreasoner\nfrom transformers import AutoModelForCausalLM, AutoConfig",
+                  "from transformers import AutoModelForCausalLM, AutoConfig\nimport tacreasoner"):
+        code = (f"{order}\nm = AutoModelForCausalLM.from_pretrained({str(tmp_path)!r})\n"
+                f"c = AutoConfig.from_pretrained({str(tmp_path)!r})\n"
+                "print(type(m).__name__, type(c).__name__)")
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr[-2000:]
+        assert done.stdout.split()[-2:] == ["TacReasonerForCausalLM", "TacReasonerConfig"]
+
+
+def test_importing_tacreasoner_does_not_import_torch() -> None:
+    code = "import sys, tacreasoner, tacreasoner.cli\nprint('torch' in sys.modules, 'transformers' in sys.modules)"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.stdout.split() == ["False", "False"], done.stderr
+
+
+def test_cached_appearance_tokens_give_the_same_output_as_running_the_vit() -> None:
+    model = tiny_model()
+    _train_fusion_a_little(model)
+    inputs = batch([prompt(2)])
+    pv = videos(2)
+    with torch.no_grad():
+        cached = model.tactile_encoder.appearance_tokens(pv)
+        direct = model(**inputs, pixel_values=pv).logits
+        reused = model(**inputs, pixel_values=pv, appearance_tokens=cached).logits
+    assert torch.allclose(direct, reused, atol=1e-6)
+    with pytest.raises(ValueError, match="appearance tokens must be 2×3×32"):
+        model(**inputs, pixel_values=pv, appearance_tokens=cached[:, :1])

@@ -1,0 +1,153 @@
+"""TacReasonerProcessor: placeholder expansion, token roles, batching, save/load, and a full ask round trip."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import torch
+from tinymodel import TEXT_CONFIG
+
+from tacreasoner.data.clip import TactileClip
+from tacreasoner.model.configuration import TacReasonerConfig
+from tacreasoner.model.encoder_config import TactileEncoderConfig
+from tacreasoner.model.modeling import TacReasonerForCausalLM, TactileAnswer
+from tacreasoner.model.processing import IGNORE_INDEX, TacReasonerProcessor
+from tacreasoner.model.tokenizer import TACTILE_PAD, train_tokenizer
+
+ENCODER = TactileEncoderConfig(num_frames=4, image_size=(32, 32), patch_size=8, hidden_size=32, num_layers=1,
+                               num_heads=2, temporal_hidden_size=32, temporal_tokens=2, fusion_heads=2,
+                               tokens_per_video=3)
+TEXTS = ["Is the first object harder than the second? <think>The first one dents less.</think><answer>yes</answer>",
+         "Which object is more elastic? The sponge springs back after release."] * 20
+
+
+@pytest.fixture(scope="module")
+def processor() -> TacReasonerProcessor:
+    return TacReasonerProcessor.for_encoder(train_tokenizer(TEXTS, vocab_size=400), ENCODER)
+
+
+def _clip(seed: int, sensor: str = "mini") -> TactileClip:
+    frames = np.random.default_rng(seed).integers(0, 255, (10, 24, 32, 3), dtype=np.uint8)
+    return TactileClip(clip_id=f"c{seed}", object_id=f"o{seed}", fps=25, frames_in_memory=frames, sensor=sensor)
+
+
+def test_prompt_expands_each_placeholder_and_preprocesses_each_video(processor) -> None:
+    inputs = processor.prompt("Compare <tactile> and <tactile>: which is harder?", [_clip(0), _clip(1, "digit@30")])
+    ids = inputs["input_ids"][0]
+    assert int((ids == processor.tactile_token_id).sum()) == 2 * 3
+    assert inputs["pixel_values"].shape == (2, 4, 3, 32, 32)
+    assert inputs["sensor_ids"].tolist() == [1, 2]
+    text = processor.tokenizer.decode(ids)
+    assert text.endswith("<|im_start|>assistant\n") and text.count(TACTILE_PAD) == 6
+
+
+def test_example_labels_only_the_answer_and_masks_the_question(processor) -> None:
+    answer = "<think>It dents less.</think><answer>yes</answer>"
+    ex = processor.example("Is <tactile> hard?", answer, [_clip(2)], system="Be brief.")
+    tok = processor.tokenizer
+    labelled = [i for i in ex["labels"] if i != IGNORE_INDEX]
+    assert tok.decode(labelled) == answer + "<|im_end|>"
+    question = [i for i, m in zip(ex["input_ids"], ex["question_mask"], strict=True) if m]
+    assert tok.decode(question).replace(" ", "") == "Is hard?".replace(" ", "")
+    assert processor.tactile_token_id not in question
+
+
+def test_placeholder_and_video_counts_must_match(processor) -> None:
+    with pytest.raises(ValueError, match=r"1 <tactile> placeholder\(s\) but 2 video\(s\)"):
+        processor.prompt("Is <tactile> hard?", [_clip(0), _clip(1)])
+    with pytest.raises(ValueError, match=r"0 <tactile> placeholder\(s\) but 1 video"):
+        processor.example("Is it hard?", "yes", [_clip(0)])
+    with pytest.raises(ValueError, match="internal token"):
+        processor.prompt(f"Is {TACTILE_PAD} hard?", [])
+
+
+def test_collate_pads_right_for_training_and_concatenates_videos(processor) -> None:
+    a = processor.example("Is <tactile> hard?", "<answer>yes</answer>", [_clip(0)])
+    b = processor.example("Which is softer, <tactile> or <tactile>? Think it over.", "<answer>first</answer>",
+                          [_clip(1), _clip(2)])
+    batch = processor.collate([a, b])
+    assert batch["input_ids"].shape[0] == 2 and batch["pixel_values"].shape[0] == 3
+    short = len(a["input_ids"])
+    assert batch["attention_mask"][0, short:].sum() == 0
+    assert (batch["labels"][0, short:] == IGNORE_INDEX).all()
+
+
+def test_save_and_load_round_trip(processor, tmp_path) -> None:
+    processor.save_pretrained(tmp_path)
+    again = TacReasonerProcessor.from_pretrained(tmp_path)
+    assert again.to_dict() == processor.to_dict()
+    q = "Is <tactile> hard?"
+    assert torch.equal(again.prompt(q, [_clip(3)])["input_ids"], processor.prompt(q, [_clip(3)])["input_ids"])
+    (tmp_path / "processor_config.json").write_text('{"video": {}, "frames": 3}')
+    with pytest.raises(ValueError, match=r"unknown keys \['frames'\]"):
+        TacReasonerProcessor.from_pretrained(tmp_path)
+
+
+def _model_for(processor: TacReasonerProcessor) -> TacReasonerForCausalLM:
+    torch.manual_seed(0)
+    config = TacReasonerConfig(text_config={**TEXT_CONFIG, "vocab_size": len(processor.tokenizer)},
+                               encoder=ENCODER.to_dict(), tactile_token_id=processor.tactile_token_id)
+    return TacReasonerForCausalLM(config).eval()
+
+
+def test_answer_generates_streams_and_parses(processor) -> None:
+    from transformers import TextStreamer
+
+    model = _model_for(processor)
+    pieces: list[str] = []
+
+    class Collect(TextStreamer):
+        def on_finalized_text(self, text: str, stream_end: bool = False) -> None:
+            pieces.append(text)
+
+    reply = model.answer(processor, "Is <tactile> hard?", [_clip(4)], max_new_tokens=6,
+                         streamer=Collect(processor.tokenizer, skip_special_tokens=True))
+    assert isinstance(reply, TactileAnswer) and isinstance(reply.text, str)
+    assert "".join(pieces).strip() == reply.text.strip()
+    sampled = model.answer(processor, "Is <tactile> hard?", [_clip(4)], max_new_tokens=6, do_sample=True)
+    assert isinstance(sampled.text, str)
+
+
+def test_auto_processor_loads_from_a_model_directory(processor, tmp_path) -> None:
+    _model_for(processor).save_pretrained(tmp_path)
+    processor.save_pretrained(tmp_path)
+    code = ("import tacreasoner\nfrom transformers import AutoProcessor\n"
+            f"p = AutoProcessor.from_pretrained({str(tmp_path)!r})\nprint(type(p).__name__, p.tokens_per_video)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split()[-2:] == ["TacReasonerProcessor", "3"]
+
+
+def test_build_model_wraps_a_saved_llm_and_its_tokenizer(tmp_path) -> None:
+    """A tokenizer without the tactile token (like a real Qwen2.5's) gains it; its rows are Stage I's to train."""
+    from tokenizers import Tokenizer, decoders, models, pre_tokenizers, trainers
+    from transformers import PreTrainedTokenizerFast, Qwen2Config, Qwen2ForCausalLM
+
+    from tacreasoner.model.build import build_model, load_model, save_model
+
+    raw = Tokenizer(models.BPE())
+    raw.pre_tokenizer = pre_tokenizers.ByteLevel(add_prefix_space=False)
+    raw.decoder = decoders.ByteLevel()
+    raw.train_from_iterator(TEXTS, trainers.BpeTrainer(
+        vocab_size=350, special_tokens=["<|endoftext|>", "<|im_start|>", "<|im_end|>"],
+        initial_alphabet=pre_tokenizers.ByteLevel.alphabet()))
+    plain = PreTrainedTokenizerFast(tokenizer_object=raw, eos_token="<|im_end|>")
+    plain.save_pretrained(tmp_path / "llm")
+    base = TEXT_CONFIG.copy()
+    base.pop("model_type")
+    Qwen2ForCausalLM(Qwen2Config(**{**base, "vocab_size": len(plain)})).save_pretrained(tmp_path / "llm")
+    model, proc = build_model(tmp_path / "llm", encoder=ENCODER)
+    assert len(model.config.new_token_ids) == 5 and proc.tactile_token_id in model.config.new_token_ids
+    assert proc.tokens_per_video == ENCODER.tokens_per_video
+    assert model.get_input_embeddings().num_embeddings >= len(proc.tokenizer)
+    assert proc.tactile_token_id == model.config.tactile_token_id
+    save_model(model, proc, tmp_path / "out")
+    again, proc2 = load_model(tmp_path / "out")
+    inputs = proc2.prompt("Is <tactile> hard?", [_clip(5)])
+    with torch.no_grad():
+        assert torch.equal(again.eval()(**inputs).logits, model.eval()(**inputs).logits)
+    with pytest.raises(FileNotFoundError, match=r"no config\.json"):
+        load_model(tmp_path / "llm-missing")

@@ -1,0 +1,142 @@
+"""Each training stage reaches exactly the parameters it should; adapters save apart and merge back."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+from tinymodel import TACTILE_ID, batch, prompt, tiny_model, videos
+
+from tacreasoner.model.modeling import TacReasonerForCausalLM
+from tacreasoner.model.stages import (
+    LoraSettings,
+    configure_stage,
+    load_adapter,
+    merge_adapter,
+    no_decay_parameter_names,
+    trainable_parameter_names,
+)
+
+NEW_IDS = [296, 297, 298, TACTILE_ID]
+
+
+def _model() -> TacReasonerForCausalLM:
+    model = tiny_model(sensor_embedding=True)
+    model.config.new_token_ids = NEW_IDS
+    torch.nn.init.normal_(model.tactile_encoder.fusion.ffn[-1].weight, std=0.1)  # let gradients flow everywhere
+    return model.train()
+
+
+def _backward(module: torch.nn.Module) -> None:
+    inputs = batch([prompt(2), prompt(1, question=[296, 11])])
+    labels = inputs["input_ids"].masked_fill(inputs["input_ids"] == TACTILE_ID, -100)
+    module(**inputs, pixel_values=videos(3), sensor_ids=torch.tensor([1, 2, 0]), labels=labels).loss.backward()
+
+
+def _with_grad(module: torch.nn.Module) -> set[str]:
+    return {n for n, p in module.named_parameters() if p.grad is not None and p.grad.abs().sum() > 0}
+
+
+def test_stage_one_trains_temporal_fusion_projector_and_new_token_rows_only() -> None:
+    model = _model()
+    trained = configure_stage(model, 1)
+    assert trained is model
+    _backward(model)
+    got = _with_grad(model)
+    prefixes = ("tactile_encoder.temporal.", "tactile_encoder.fusion.", "tactile_encoder.sensor_embed.", "projector.")
+    embedding = "language_model.model.embed_tokens.weight"
+    assert got - {embedding} and all(n.startswith(prefixes) for n in got - {embedding})
+    expected = {n for n, _ in model.named_parameters() if n.startswith(prefixes)}
+    assert expected - got == set(), f"never reached: {sorted(expected - got)}"
+    assert not any(n.startswith("tactile_encoder.appearance.") for n in got)
+    grad = model.get_input_embeddings().weight.grad
+    rows = grad.abs().sum(1).nonzero().flatten().tolist()
+    assert rows and set(rows) <= set(NEW_IDS)
+    assert embedding in no_decay_parameter_names(model)
+
+
+def test_stage_two_trains_projector_and_lora_only() -> None:
+    model = _model()
+    peft_model = configure_stage(model, 2, LoraSettings(r=4, alpha=8))
+    names = trainable_parameter_names(peft_model)
+    assert names and all("lora_" in n or "projector" in n for n in names)
+    assert {"q_proj", "k_proj", "v_proj", "o_proj"} <= {n.split(".")[-4] for n in names if "lora_A" in n}
+    # LoRA B starts at zero, so give it a value to let gradients reach A as well
+    for n, p in peft_model.named_parameters():
+        if "lora_B" in n:
+            torch.nn.init.normal_(p, std=0.01)
+    _backward(peft_model)
+    got = _with_grad(peft_model)
+    assert got == set(names), f"missing {set(names) - got}, extra {got - set(names)}"
+    assert not any("tactile_encoder" in n for n in got)
+
+
+def test_unknown_stage_and_bad_lora_settings_are_clear_errors() -> None:
+    with pytest.raises(ValueError, match="stage must be one of"):
+        configure_stage(_model(), 3)
+    with pytest.raises(ValueError, match="lora: unknown keys"):
+        LoraSettings.from_dict({"rank": 8})
+    with pytest.raises(ValueError, match="r must be"):
+        LoraSettings(r=0)
+
+
+def test_adapter_saves_apart_and_merging_keeps_the_outputs(tmp_path) -> None:
+    base = _model().eval()
+    base.save_pretrained(tmp_path / "base")
+    peft_model = configure_stage(base, 2, LoraSettings(r=4, alpha=8, dropout=0.0))
+    with torch.no_grad():
+        for _n, p in peft_model.named_parameters():
+            if p.requires_grad:
+                p.add_(torch.randn_like(p) * 0.05)
+    peft_model.save_pretrained(tmp_path / "adapter")
+    files = {p.name for p in (tmp_path / "adapter").iterdir()}
+    assert {"adapter_config.json", "adapter_model.safetensors"} <= files
+    inputs = batch([prompt(2)])
+    pv = videos(2)
+    peft_model.eval()
+    with torch.no_grad():
+        expected = peft_model(**inputs, pixel_values=pv).logits
+    reloaded = load_adapter(TacReasonerForCausalLM.from_pretrained(tmp_path / "base").eval(), tmp_path / "adapter")
+    merged = merge_adapter(TacReasonerForCausalLM.from_pretrained(tmp_path / "base").eval(), tmp_path / "adapter")
+    assert type(merged) is TacReasonerForCausalLM
+    merged.save_pretrained(tmp_path / "merged")
+    again = TacReasonerForCausalLM.from_pretrained(tmp_path / "merged").eval()
+    with torch.no_grad():
+        assert torch.allclose(reloaded(**inputs, pixel_values=pv).logits, expected, atol=1e-5)
+        assert torch.allclose(again(**inputs, pixel_values=pv).logits, expected, atol=1e-4)
+    with pytest.raises(FileNotFoundError, match=r"adapter_config\.json"):
+        load_adapter(again, tmp_path / "nothing")
+
+
+def test_merge_adapter_command(tmp_path) -> None:
+    from test_processing import ENCODER, TEXTS
+    from tinymodel import TEXT_CONFIG
+    from typer.testing import CliRunner
+
+    from tacreasoner.cli import app
+    from tacreasoner.model.build import load_model, save_model
+    from tacreasoner.model.configuration import TacReasonerConfig
+    from tacreasoner.model.processing import TacReasonerProcessor
+    from tacreasoner.model.tokenizer import train_tokenizer
+
+    processor = TacReasonerProcessor.for_encoder(train_tokenizer(TEXTS, vocab_size=400), ENCODER)
+    config = TacReasonerConfig(text_config={**TEXT_CONFIG, "vocab_size": len(processor.tokenizer)},
+                               encoder=ENCODER.to_dict(), tactile_token_id=processor.tactile_token_id)
+    base = TacReasonerForCausalLM(config).eval()
+    save_model(base, processor, tmp_path / "base")
+    peft_model = configure_stage(base, 2, LoraSettings(r=4, alpha=8, dropout=0.0))
+    with torch.no_grad():
+        for _, p in peft_model.named_parameters():
+            if p.requires_grad:
+                p.add_(torch.randn_like(p) * 0.05)
+    peft_model.save_pretrained(tmp_path / "adapter")
+    runner = CliRunner()
+    done = runner.invoke(app, ["merge-adapter", str(tmp_path / "base"), str(tmp_path / "adapter"),
+                               "--out", str(tmp_path / "merged")])
+    assert done.exit_code == 0, done.output
+    merged, proc = load_model(tmp_path / "merged")
+    inputs = proc.prompt("Is <tactile> hard?", [torch.zeros(6, 24, 32, 3, dtype=torch.uint8).numpy()])
+    with torch.no_grad():
+        assert torch.allclose(merged.eval()(**inputs).logits, peft_model.eval()(**inputs).logits, atol=1e-4)
+    bad = runner.invoke(app, ["merge-adapter", str(tmp_path / "base"), str(tmp_path / "nowhere"),
+                              "--out", str(tmp_path / "m2")])
+    assert bad.exit_code == 2 and "adapter_config.json" in bad.output

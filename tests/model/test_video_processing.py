@@ -1,0 +1,69 @@
+"""Clip → encoder input, and the encoder config's checks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tacreasoner.data.clip import TactileClip
+from tacreasoner.model.encoder_config import TactileEncoderConfig
+from tacreasoner.model.video_processing import VideoProcessingConfig, preprocess_video
+
+
+def _frames(n: int = 12, h: int = 24, w: int = 32, seed: int = 0) -> np.ndarray:
+    return np.random.default_rng(seed).integers(0, 255, (n, h, w, 3), dtype=np.uint8)
+
+
+def test_output_shape_dtype_and_background_is_zero() -> None:
+    still = np.repeat(_frames(1), 10, axis=0)
+    out = preprocess_video(still, VideoProcessingConfig(num_frames=4, image_size=(16, 16)))
+    assert out.shape == (4, 3, 16, 16) and out.dtype == np.float32
+    assert np.allclose(out, 0.0)
+
+
+def test_background_is_the_first_no_contact_frame_of_a_clip() -> None:
+    frames = _frames(6)
+    frames[3] = 0  # phases say frame 3 is the gel at rest
+    clip = TactileClip(clip_id="c", object_id="o", fps=25, frames_in_memory=frames,
+                       phases=["press", "press", "hold", "no_contact", "release", "release"])
+    config = VideoProcessingConfig(num_frames=6, image_size=(24, 32), std=1.0, mean=0.0)
+    out = preprocess_video(clip, config)
+    # (I − B)/255 + 0.5 with B = frame 3, which is all zeros
+    assert np.allclose(out[0], frames[0].transpose(2, 0, 1) / 255.0 + 0.5, atol=1e-6)
+
+
+def test_salient_and_phase_sampling_and_the_seeded_jitter() -> None:
+    frames = _frames(40)
+    base = VideoProcessingConfig(num_frames=4, image_size=(8, 8))
+    assert not np.array_equal(preprocess_video(frames, base, seed=1), preprocess_video(frames, base, seed=2))
+    assert np.array_equal(preprocess_video(frames, base), preprocess_video(frames, base))
+    salient = VideoProcessingConfig(num_frames=4, image_size=(8, 8), sampling="salient")
+    assert preprocess_video(frames, salient).shape == (4, 3, 8, 8)
+    # phase sampling without a phase track falls back to uniform rather than failing a batch
+    phase = VideoProcessingConfig(num_frames=4, image_size=(8, 8), sampling="phase")
+    assert np.array_equal(preprocess_video(frames, phase), preprocess_video(frames, base))
+
+
+def test_bad_inputs_and_settings_are_named() -> None:
+    with pytest.raises(ValueError, match="expected uint8 frames"):
+        preprocess_video(np.zeros((4, 8, 8, 3), dtype=np.float32))
+    with pytest.raises(ValueError, match="sampling 'random' is not one of"):
+        VideoProcessingConfig(sampling="random")
+    with pytest.raises(ValueError, match=r"unknown keys \['fps'\]"):
+        VideoProcessingConfig.from_dict({"fps": 25})
+
+
+def test_encoder_config_checks_and_round_trip() -> None:
+    config = TactileEncoderConfig()
+    assert TactileEncoderConfig.from_dict(config.to_dict()) == config
+    assert config.grid == (4, 8, 8) and config.num_patches == 256
+    with pytest.raises(ValueError, match="multiple of tubelet_size"):
+        TactileEncoderConfig(num_frames=7)
+    with pytest.raises(ValueError, match="multiple of patch_size"):
+        TactileEncoderConfig(image_size=(60, 64))
+    with pytest.raises(ValueError, match="tokens_per_video 300 needs more patch tokens"):
+        TactileEncoderConfig(tokens_per_video=300)
+    with pytest.raises(ValueError, match="must be a positive number"):
+        TactileEncoderConfig(temporal_tokens=0)
+    assert config.sensor_index("digit@30") == 2 and config.sensor_index("mini+markers") == 1
+    assert config.sensor_index("gelsight-r1.5") == 0
