@@ -36,7 +36,13 @@ from tacreasoner.model.appearance import AppearanceEncoder
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.masked_video import MaskedVideoConfig, MaskedVideoModel, tube_mask
 from tacreasoner.model.video_processing import VideoProcessingConfig, preprocess_video
-from tacreasoner.train.state import cosine_with_warmup, latest_checkpoint, load_checkpoint, save_checkpoint
+from tacreasoner.train.state import (
+    cosine_with_warmup,
+    free_threads,
+    latest_checkpoint,
+    load_checkpoint,
+    save_checkpoint,
+)
 
 __all__ = ["DEFAULTS", "PretrainDefaults", "free_threads", "gather_pretraining_clips", "preprocess_clips",
            "pretrain_encoder", "video_config_for"]
@@ -164,19 +170,6 @@ def preprocess_clips(clips: Sequence[TactileClip], config: VideoProcessingConfig
 
 
 # ---------------------------------------------------------------------------------------------- training
-
-
-def free_threads() -> int:
-    """torch's thread count minus the cores other processes keep busy (1-minute load average).
-
-    Tiny matrices make every op wait for its slowest thread: 2 threads on 2 cores next to another
-    busy process train several times slower than 1 thread (pretrain_llm.auto_threads measured the same).
-    """
-    try:
-        busy = os.getloadavg()[0]
-    except OSError:
-        busy = 0.0
-    return max(1, min(torch.get_num_threads(), int((os.cpu_count() or 1) - busy + 0.5)))
 
 
 def _batch(data: torch.Tensor, seed: int, step: int, batch_size: int, grid: tuple[int, int, int],

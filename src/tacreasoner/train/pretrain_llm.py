@@ -31,6 +31,7 @@ from tacreasoner.knowledge.corpus import EVAL_KINDS, Corpus, EvalQuestion, build
 from tacreasoner.model.tokenizer import END_OF_TEXT, IM_END, tokenizer_training_texts, train_tokenizer
 from tacreasoner.train.state import (
     cosine_with_warmup,
+    free_threads,
     latest_checkpoint,
     load_checkpoint,
     save_checkpoint,
@@ -79,20 +80,8 @@ class PretrainSettings:
 
 
 def auto_threads() -> int:
-    """Threads for training: torch's default, minus cores other processes keep busy (1-minute load average).
-
-    With tiny matrices every op waits for its slowest thread, so one thread on a contended core slows
-    the whole step down several times (measured: 2 threads next to one busy process ran 4-6× slower
-    than 1 thread).
-    """
-    import os
-
-    cores = os.cpu_count() or 1
-    try:
-        busy = os.getloadavg()[0]
-    except OSError:
-        busy = 0.0
-    return max(1, min(torch.get_num_threads(), int(cores - busy + 0.5)))
+    """Threads for training (kept as a name for callers): see :func:`tacreasoner.train.state.free_threads`."""
+    return free_threads()
 
 
 def bf16_supported() -> bool:
