@@ -29,6 +29,20 @@ def iter_jsonl(path: str | Path) -> Iterator[tuple[int, dict]]:
             yield lineno, obj
 
 
+def read_json_object(path: str | Path, expected: str) -> dict:
+    """A JSON file holding one object (a config); clear errors naming ``path`` and what was ``expected``."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file (expected {expected})")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{path}: not valid JSON ({e.msg} at line {e.lineno})") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: expected a JSON object ({expected}), got {type(data).__name__}")
+    return data
+
+
 def atomic_write_text(path: str | Path, text: str) -> Path:
     """Write via a temporary file in the same folder and rename, so readers never see half a file."""
     path = Path(path)

@@ -17,6 +17,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from tacreasoner.jsonl import read_json_object
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 
 __all__ = ["CONFIG_NAME", "WEIGHTS_NAME", "AppearanceEncoder", "TransformerBlock", "TubeletEmbedding",
@@ -235,15 +236,8 @@ class AppearanceEncoder(nn.Module):
 
 def _read_config(directory: Path) -> TactileEncoderConfig:
     path = directory / CONFIG_NAME
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file (expected an AppearanceEncoder directory written by "
-                                "save_pretrained / `tacreasoner pretrain-encoder`)")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
-    if not isinstance(data, dict):
-        raise ValueError(f"{path}: expected a JSON object of encoder config fields")
+    data = read_json_object(path, "an AppearanceEncoder directory written by save_pretrained / "
+                                  "`tacreasoner pretrain-encoder`")
     return TactileEncoderConfig.from_dict(data, what=f"{path}: unknown encoder config keys")
 
 

@@ -20,6 +20,7 @@ import numpy as np
 import torch
 from transformers import AutoTokenizer, BatchFeature, PreTrainedTokenizerBase
 
+from tacreasoner.jsonl import read_json_object
 from tacreasoner.model.encoder_config import DEFAULT_SENSOR_TYPES, TactileEncoderConfig
 from tacreasoner.model.tokenizer import IM_END, TACTILE_PAD
 from tacreasoner.model.video_processing import VideoInput, VideoProcessingConfig, preprocess_video, sensor_of
@@ -229,12 +230,7 @@ class TacReasonerProcessor:
     def from_pretrained(cls, directory: str | os.PathLike[str], **kwargs: Any) -> TacReasonerProcessor:
         directory = Path(directory)
         path = directory / PROCESSOR_CONFIG_NAME
-        if not path.is_file():
-            raise FileNotFoundError(f"{path}: no processor config (save one with TacReasonerProcessor.save_pretrained)")
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"{path}: not valid JSON ({exc})") from exc
+        data = read_json_object(path, "a processor config written by TacReasonerProcessor.save_pretrained")
         known = {"processor_class", "video", "tokens_per_video", "sensor_types", "system_prompt"}
         if unknown := sorted(set(data) - known):
             raise ValueError(f"{path}: unknown keys {unknown}; known: {', '.join(sorted(known))}")

@@ -78,7 +78,6 @@ def _train_new_rows(model: TacReasonerForCausalLM) -> None:
     :func:`no_decay_parameter_names` lists them.
     """
     ids = list(model.config.new_token_ids or [])
-    model._row_masked = set()
     if not ids:
         return
     seen: set[int] = set()
@@ -101,7 +100,7 @@ def configure_stage(model: TacReasonerForCausalLM, stage: int, lora: LoraSetting
     _freeze(model)
     for handle in getattr(model, "_new_row_hooks", []):
         handle.remove()
-    model._new_row_hooks = []
+    model._new_row_hooks, model._row_masked = [], set()
     encoder = model.tactile_encoder
     if stage == 1:
         for part in (encoder.temporal, encoder.fusion, encoder.sensor_embed, model.projector):

@@ -23,7 +23,6 @@ spellings are read: ``attention.attention.q_bias``/``v_bias`` (checkpoints on th
 
 from __future__ import annotations
 
-import json
 import os
 import re
 from pathlib import Path
@@ -31,6 +30,7 @@ from typing import Any
 
 import torch
 
+from tacreasoner.jsonl import read_json_object
 from tacreasoner.model.appearance import AppearanceEncoder, load_safetensors_strict
 
 __all__ = ["encoder_config_from_videomae", "load_videomae", "map_videomae_key"]
@@ -130,12 +130,7 @@ def _read_hf_config(path_or_hf_config: Any) -> tuple[dict[str, Any], str]:
         return path_or_hf_config.to_dict(), "VideoMAE config"
     path = Path(path_or_hf_config)
     path = path / "config.json" if path.is_dir() else path
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file (expected a VideoMAE config.json)")
-    try:
-        return json.loads(path.read_text(encoding="utf-8")), str(path)
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    return read_json_object(path, "a VideoMAE config.json"), str(path)
 
 
 def _pair(value: Any, name: str, where: str) -> tuple[int, int]:

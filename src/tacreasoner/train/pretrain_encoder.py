@@ -32,6 +32,7 @@ import numpy as np
 import torch
 
 from tacreasoner.data.clip import TactileClip
+from tacreasoner.data.readers import VIDEO_SUFFIXES as READER_VIDEO_SUFFIXES
 from tacreasoner.model.appearance import AppearanceEncoder
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.masked_video import MaskedVideoConfig, MaskedVideoModel, tube_mask
@@ -51,7 +52,8 @@ CHECKPOINTS = "checkpoints"
 LOG_NAME = "pretrain_log.jsonl"
 VIDEO_CONFIG_NAME = "video_processing.json"
 RUN_CONFIG_NAME = "pretrain_config.json"
-VIDEO_SUFFIXES = (".mp4", ".mov", ".avi", ".mkv", ".webm")
+# The data layer's video files, plus containers PyAV also reads that only appear as loose unlabelled video.
+VIDEO_SUFFIXES = (*READER_VIDEO_SUFFIXES, ".mkv", ".webm")
 
 
 @dataclass(frozen=True)
