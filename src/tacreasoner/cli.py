@@ -603,6 +603,112 @@ def merge_adapter_cmd(
     console.print(f"merged model: {out} (loads with AutoModelForCausalLM / AutoProcessor after import tacreasoner)")
 
 
+# ------------------------------------------------------------------------------------------ training
+
+
+def _parse_overrides(pairs: list[str] | None) -> dict[str, object]:
+    """``--set stage2.steps=50`` pairs → {"stage2.steps": 50} (values parsed as YAML scalars)."""
+    import yaml
+
+    out: dict[str, object] = {}
+    for pair in pairs or []:
+        key, sep, value = pair.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"--set {pair!r}: expected KEY=VALUE, e.g. --set stage2.steps=50")
+        out[key.strip()] = yaml.safe_load(value)
+    return out
+
+
+Overrides = Annotated[list[str] | None, typer.Option(
+    "--set", help="Override a config value: --set stage2.steps=50 (repeatable; dotted keys).")]
+
+
+@app.command()
+@cli_errors
+def train(
+    stage: Annotated[int, typer.Option("--stage", help="1 = alignment (LLM frozen), 2 = LoRA SFT on TouchCoT.")],
+    config: Annotated[Path, typer.Option("--config", help="YAML training config.")] = Path("configs/tiny-cpu.yaml"),
+    overrides: Overrides = None,
+    resume: Annotated[bool, typer.Option("--resume", help="Continue from the newest checkpoint.")] = False,
+) -> None:
+    """Train Stage I or II (Accelerate: CPU, GPU, DDP/FSDP/DeepSpeed via `accelerate launch`); resumable."""
+    _needs_train_extra("train")
+    from tacreasoner.train.config import load_train_config
+    from tacreasoner.train.trainer import check_inputs, train_stage
+
+    cfg = load_train_config(config, _parse_overrides(overrides))
+    check_inputs(cfg, stage)
+    result = train_stage(cfg, stage, resume=resume)
+    loss = "–" if result.final_loss is None else f"{result.final_loss:.4f}"
+    console.print(f"stage {stage}: {result.steps} steps on {result.examples} examples, final loss {loss}, "
+                  f"{result.train_seconds:.0f} s training; model: {result.model_dir}")
+
+
+@app.command("evaluate")
+@cli_errors
+def evaluate_cmd(
+    model: Annotated[Path, typer.Option("--model", help="Trained model directory (e.g. runs/train/stage2/model); "
+                                                        "repeat for several seeds.")],
+    bench: Bench,
+    out: Annotated[Path, typer.Option("--out", help="Report directory (predictions/, report.md, plots).")],
+    split: Split = "test",
+    mode: Mode = "strict",
+    batch_size: Annotated[int, typer.Option("--batch-size", help="Prompts per generate call.")] = 32,
+    max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply.")] = 256,
+    limit: Annotated[int | None, typer.Option("--limit", help="Only the first N items (trial runs).")] = None,
+) -> None:
+    """Answer a benchmark split with a trained model and score it (Wilson CIs; resumable predictions)."""
+    _needs_train_extra("evaluate")
+    _at_least_one("--batch-size", batch_size)
+    from tacreasoner.evaluate.report import evaluate
+
+    items, preds = _predict_split(model, bench, split, out, batch_size, max_new_tokens, limit)
+    report = evaluate(items, [preds], mode, out)
+    console.print(report.to_markdown())
+    console.print(f"report: {out / 'report.md'}; predictions: {preds}")
+
+
+def _predict_split(model_dir: Path, bench: Path, split: str, out: Path, batch_size: int, max_new_tokens: int,
+                   limit: int | None, name: str | None = None) -> tuple[list, Path]:
+    from tacreasoner.evaluate.predict import load_trained, predict_items
+    from tacreasoner.tasks.bench import load_bench
+    from tacreasoner.train.data import bench_video_root
+
+    info, items = load_bench(bench, split)
+    items = items[:limit] if limit else items
+    if not items:
+        raise ValueError(f"{bench}: split {split!r} has no items")
+    model, processor = load_trained(model_dir)
+    path = out / "predictions" / f"{name or split}.jsonl"
+    with ClipProgress(f"answering {split}", "items") as bar:
+        predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
+                      max_new_tokens=max_new_tokens, progress=bar)
+    return items, path
+
+
+@app.command()
+@cli_errors
+def ask(
+    question: Annotated[str, typer.Argument(help="Question with one <tactile> per video, e.g. 'Is <tactile> soft?'.")],
+    video: Annotated[list[Path], typer.Option("--video", help="Tactile video file, one per <tactile> (repeatable).")],
+    model: Annotated[Path, typer.Option("--model", help="Trained model directory.")] = QUICKSTART_DIR / "model",
+    max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply.")] = 256,
+    sample: Annotated[bool, typer.Option("--sample/--greedy", help="Sample instead of greedy decoding.")] = False,
+) -> None:
+    """Ask a trained model about tactile videos; prints its reasoning and answer."""
+    _needs_train_extra("ask")
+    from tacreasoner.evaluate.predict import load_trained
+
+    for path in video:
+        if not path.is_file():
+            raise FileNotFoundError(f"--video {path}: no such file")
+    loaded, processor = load_trained(model)
+    reply = loaded.answer(processor, question, [str(p) for p in video], max_new_tokens=max_new_tokens,
+                          do_sample=sample)
+    console.print(f"[bold]think:[/bold] {reply.think if reply.think is not None else '(none)'}")
+    console.print(f"[bold]answer:[/bold] {reply.answer if reply.answer is not None else reply.text}")
+
+
 # ------------------------------------------------------------------------------------------ tiny LLM
 
 

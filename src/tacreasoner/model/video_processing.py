@@ -88,11 +88,13 @@ def _frames_and_phases(video: VideoInput) -> tuple[np.ndarray, Sequence[str] | N
 
 
 def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = None, *,
-                     seed: int | None = None) -> np.ndarray:
+                     seed: int | None = None, background: np.ndarray | None = None) -> np.ndarray:
     """num_frames×3×H×W float32: sampled, resized keeping aspect, background-subtracted, normalised.
 
     The background is the clip's first no-contact frame (first frame when phases are unknown).
     ``seed`` jitters which frame is taken inside each sampling segment (training augmentation).
+    ``background``: the gel at rest, for a segment cut from a longer clip (its own first frame may be
+    in contact already).
     """
     config = config or VideoProcessingConfig()
     frames, phases, what = _frames_and_phases(video)
@@ -105,7 +107,8 @@ def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = N
         method = "uniform"  # real video without a phase track: fall back rather than fail mid-batch
     idx = sample_indices(len(frames), config.num_frames, method, frames=frames if method == "salient" else None,
                          phases=phases if method == "phase" else None, seed=seed)
-    background = background_frame(frames, phases)
+    if background is None:
+        background = background_frame(frames, phases)
     chosen = resize_keep_aspect(np.concatenate([background[None], frames[idx]]), *config.image_size,
                                 mode=config.resize_mode)
     out = subtract_background(chosen[1:], chosen[0])

@@ -43,6 +43,7 @@ from tacreasoner.train.state import (
     latest_checkpoint,
     load_checkpoint,
     save_checkpoint,
+    truncate_log,
 )
 
 __all__ = ["DEFAULTS", "PretrainDefaults", "free_threads", "gather_pretraining_clips", "preprocess_clips",
@@ -332,7 +333,7 @@ def _train(model: MaskedVideoModel, optimizer: torch.optim.Optimizer, scheduler:
     model.train()
     window: list[float] = []
     t_start = time.perf_counter()
-    _truncate_log(out / LOG_NAME, start)
+    truncate_log(out / LOG_NAME, start)
     with (out / LOG_NAME).open("a", encoding="utf-8") as log_file:
         for step in range(start, steps):
             x, keep, mask = _batch(data, seed, step, batch_size, grid, ratio)
@@ -356,12 +357,3 @@ def _train(model: MaskedVideoModel, optimizer: torch.optim.Optimizer, scheduler:
                 save_checkpoint(out / CHECKPOINTS, done, model.state_dict(), optimizer, scheduler,
                                 extra={"run": run})
     model.eval()
-
-
-def _truncate_log(path: Path, step: int) -> None:
-    """Drop log records after the checkpoint being resumed (they are about to be redone)."""
-    if not path.is_file():
-        return
-    kept = [line for line in path.read_text(encoding="utf-8").splitlines()
-            if line.strip() and json.loads(line).get("step", 0) <= step]
-    path.write_text("".join(line + "\n" for line in kept), encoding="utf-8")

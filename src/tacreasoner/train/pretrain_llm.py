@@ -36,6 +36,7 @@ from tacreasoner.train.state import (
     load_checkpoint,
     save_checkpoint,
     seed_everything,
+    write_json,
 )
 
 __all__ = ["PretrainSettings", "auto_threads", "evaluate_knowledge", "knowledge_check", "pretrain_llm"]
@@ -202,12 +203,6 @@ def _check_settings(out: Path, settings: PretrainSettings, resume: bool) -> None
                          f"new output directory")
 
 
-def _write_json(path: Path, data: dict[str, Any]) -> None:
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
-    tmp.replace(path)
-
-
 def _unique_weights(model: torch.nn.Module) -> dict[str, torch.Tensor]:
     """The state dict without tied duplicates (safetensors refuses tensors that share memory)."""
     seen: set[int] = set()
@@ -318,7 +313,7 @@ def _train(out: Path, settings: PretrainSettings, *, resume: bool, progress: boo
     examples, truncated = _tokenise(corpus, tokenizer, settings.seq_len)
     pad_id, eos_id = tokenizer.pad_token_id, tokenizer.eos_token_id
     n_tokens = sum(len(e.ids) for e in examples)
-    _write_json(out / SETTINGS_FILE, {"settings": asdict(settings), "corpus": corpus.stats(),
+    write_json(out / SETTINGS_FILE, {"settings": asdict(settings), "corpus": corpus.stats(),
                                        "corpus_tokens": n_tokens, "truncated_examples": truncated,
                                        "vocab_size": len(tokenizer)})
 
@@ -397,7 +392,7 @@ def _train(out: Path, settings: PretrainSettings, *, resume: bool, progress: boo
                  "train_seconds": round(elapsed_before + time.perf_counter() - train_start, 1),
                  "total_seconds_this_call": round(time.perf_counter() - started, 1),
                  "parameters": sum(p.numel() for p in model.parameters()), "threads": torch.get_num_threads()})
-    _write_json(out / SETTINGS_FILE, info)
+    write_json(out / SETTINGS_FILE, info)
     return out
 
 
@@ -514,5 +509,5 @@ def knowledge_check(out_dir: str | Path, *, include_seen: bool = False, batch_si
             f.write(json.dumps(p) + "\n")
     result["heldout_pairs"] = len(corpus.heldout_pairs)
     result["heldout_scenarios"] = list(corpus.heldout_scenarios)
-    _write_json(out / KNOWLEDGE_EVAL_FILE, result)
+    write_json(out / KNOWLEDGE_EVAL_FILE, result)
     return result

@@ -22,8 +22,7 @@ import torch
 from safetensors.torch import load_file, save_file
 
 __all__ = ["TrainingState", "cosine_with_warmup", "free_threads", "latest_checkpoint", "load_checkpoint",
-           "save_checkpoint",
-           "seed_everything"]
+           "save_checkpoint", "seed_everything", "truncate_log", "write_json"]
 
 CHECKPOINT_PREFIX = "step-"
 
@@ -130,3 +129,19 @@ def _as_tuple(state: Any) -> Any:
     if isinstance(state, list):
         return tuple(_as_tuple(s) for s in state)
     return state
+
+
+def write_json(path: Path, data: dict[str, Any]) -> None:
+    """Write a JSON file atomically (a reader never sees half of it)."""
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data, indent=2, default=str) + "\n", encoding="utf-8")
+    tmp.replace(path)
+
+
+def truncate_log(path: Path, step: int) -> None:
+    """Drop JSONL log records after the checkpoint being resumed (they are about to be redone)."""
+    if not path.is_file():
+        return
+    kept = [line for line in path.read_text(encoding="utf-8").splitlines()
+            if line.strip() and json.loads(line).get("step", 0) <= step]
+    path.write_text("".join(line + "\n" for line in kept), encoding="utf-8")

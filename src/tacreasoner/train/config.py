@@ -1,0 +1,274 @@
+"""The training configuration: one YAML file, one schema, checked before any work starts.
+
+A file has five sections (every key optional except where noted)::
+
+    output_dir: runs/train          # stage1/ and stage2/ are written under it
+    seed: 0
+    model:    {llm, appearance, encoder: {...ablation switches...}, dtype, gradient_checkpointing}
+    data:     {bench, touchcot, stage2_data, tasks, max_length, group_by_length, cache_appearance}
+    stage1:   {steps, batch_size, grad_accum, lr, projector_lr, weight_decay, warmup_ratio, ...}
+    stage2:   {... same fields ...}
+    lora:     {r, alpha, dropout, target_modules}
+    runtime:  {mixed_precision, log_with, log_every, checkpoint_every, keep_checkpoints, threads}
+
+Unknown keys and bad values are errors naming ``file:line`` and the key, so a typo never runs a
+10k-step job with a default in its place. Relative paths are taken relative to the working directory
+(as on the command line).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from tacreasoner.fields import reject_unknown_fields
+from tacreasoner.model.stages import STAGES, LoraSettings
+from tacreasoner.yamlfile import KeyPath, line_of, read_yaml
+
+__all__ = ["DataSettings", "ModelSettings", "RuntimeSettings", "StageSettings", "TrainConfig", "load_train_config"]
+
+STAGE2_DATA = ("touchcot", "plain")
+"""Stage II targets: TouchCoT reasoning, or the plain gold answer (the paper's "w/o CoT" ablation)."""
+MIXED_PRECISION = ("auto", "no", "bf16", "fp16")
+LOGGERS = ("none", "tensorboard")
+DTYPES = ("float32", "bfloat16", "float16", "auto")
+
+
+@dataclass
+class ModelSettings:
+    llm: str = "runs/llm"
+    """Causal LM directory or hub id: ``pretrain-llm`` output, or e.g. Qwen/Qwen2.5-7B-Instruct."""
+    appearance: str | None = None
+    """``pretrain-encoder`` output directory (or null: a randomly initialised appearance ViT)."""
+    encoder: dict[str, Any] = field(default_factory=dict)
+    """``TactileEncoderConfig`` fields: ablation switches (use_temporal, question_conditioning, tokens_per_video)."""
+    dtype: str = "float32"
+    """Weights' dtype when loading the LLM (bfloat16 for 7B+ on GPU)."""
+    gradient_checkpointing: bool = False
+    attn_implementation: str | None = None
+    system_prompt: str | None = None
+
+    def check(self) -> None:
+        if not self.llm:
+            raise ValueError("model.llm: give a causal LM directory or hub id")
+        if self.dtype not in DTYPES:
+            raise ValueError(f"model.dtype: {self.dtype!r} is not one of {', '.join(DTYPES)}")
+        from tacreasoner.model.encoder_config import TactileEncoderConfig
+
+        try:
+            TactileEncoderConfig.from_dict(self.encoder)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"model.encoder: {exc}") from None
+
+
+@dataclass
+class DataSettings:
+    bench: str = "runs/quickstart/bench"
+    """Benchmark directory (``build-bench``): Stage I description data comes from its train split."""
+    touchcot: str | None = "runs/quickstart/touchcot/touchcot/touchcot_train.jsonl"
+    """TouchCoT training JSONL (``build-cot``) for Stage II."""
+    stage2_data: str = "touchcot"
+    """touchcot | plain (gold answers without reasoning, from the benchmark's train split)."""
+    tasks: list[str] | None = None
+    """Restrict training items to these tasks (default: all in the files; TSA is never trained on)."""
+    max_length: int = 768
+    """Longer examples are dropped and counted (never silently truncated mid-answer)."""
+    group_by_length: bool = True
+    cache_appearance: bool = True
+    """Run the frozen appearance ViT once per clip instead of every step (identical output, faster)."""
+    max_items: int | None = None
+    """Use only the first N training examples (trial runs)."""
+
+    def check(self) -> None:
+        if self.stage2_data not in STAGE2_DATA:
+            raise ValueError(f"data.stage2_data: {self.stage2_data!r} is not one of {', '.join(STAGE2_DATA)}")
+        if self.max_length < 16:
+            raise ValueError(f"data.max_length must be at least 16, got {self.max_length}")
+        if self.max_items is not None and self.max_items < 1:
+            raise ValueError(f"data.max_items must be at least 1, got {self.max_items}")
+        if self.tasks is not None:
+            from tacreasoner.tasks.schema import TASKS
+
+            unknown = [t for t in self.tasks if t not in TASKS]
+            if unknown:
+                raise ValueError(f"data.tasks: unknown task(s) {unknown}; known: {', '.join(TASKS)}")
+            if "TSA" in self.tasks:
+                raise ValueError("data.tasks: TSA is the zero-shot task and is never trained on")
+
+
+@dataclass
+class StageSettings:
+    steps: int = 200
+    batch_size: int = 8
+    """Examples per device per micro-batch."""
+    grad_accum: int = 1
+    lr: float = 2e-4
+    """Learning rate of every trained part except the projector (LoRA in Stage II, temporal branch in Stage I)."""
+    projector_lr: float | None = None
+    """Projector learning rate (default: lr)."""
+    weight_decay: float = 0.0
+    warmup_ratio: float = 0.05
+    min_lr_ratio: float = 0.1
+    max_grad_norm: float = 1.0
+    skip: bool = False
+    """Ablations: skip the stage (w/o Stage I / w/o Stage II)."""
+
+    def check(self, name: str) -> None:
+        for key in ("steps", "batch_size", "grad_accum"):
+            if int(getattr(self, key)) < 1:
+                raise ValueError(f"{name}.{key} must be at least 1, got {getattr(self, key)}")
+        for key in ("lr", "projector_lr"):
+            value = getattr(self, key)
+            if value is not None and not (isinstance(value, int | float) and value > 0 and math.isfinite(value)):
+                raise ValueError(f"{name}.{key} must be a positive number, got {value!r}")
+        if not 0 <= self.warmup_ratio < 1:
+            raise ValueError(f"{name}.warmup_ratio must be in [0, 1), got {self.warmup_ratio}")
+        if not 0 <= self.min_lr_ratio <= 1:
+            raise ValueError(f"{name}.min_lr_ratio must be in [0, 1], got {self.min_lr_ratio}")
+        if self.weight_decay < 0 or self.max_grad_norm <= 0:
+            raise ValueError(f"{name}: weight_decay must be ≥ 0 and max_grad_norm > 0")
+
+
+@dataclass
+class RuntimeSettings:
+    mixed_precision: str = "auto"
+    """auto = bf16 where the hardware has it (CUDA bf16, or a CPU with native bf16), else fp32."""
+    log_with: str = "tensorboard"
+    log_every: int = 10
+    checkpoint_every: int = 100
+    keep_checkpoints: int = 2
+    threads: int | None = None
+    """CPU threads (default: cores not busy with other work)."""
+    progress: bool = True
+
+    def check(self) -> None:
+        if self.mixed_precision not in MIXED_PRECISION:
+            raise ValueError(f"runtime.mixed_precision: {self.mixed_precision!r} is not one of "
+                             f"{', '.join(MIXED_PRECISION)}")
+        if self.log_with not in LOGGERS:
+            raise ValueError(f"runtime.log_with: {self.log_with!r} is not one of {', '.join(LOGGERS)}")
+        for key in ("log_every", "checkpoint_every"):
+            if getattr(self, key) < 1:
+                raise ValueError(f"runtime.{key} must be at least 1, got {getattr(self, key)}")
+        if self.keep_checkpoints < 1:
+            raise ValueError(f"runtime.keep_checkpoints must be at least 1, got {self.keep_checkpoints}")
+        if self.threads is not None and self.threads < 1:
+            raise ValueError(f"runtime.threads must be at least 1, got {self.threads}")
+
+
+def _default_stage1() -> StageSettings:
+    return StageSettings(steps=150, lr=1e-3, batch_size=16)
+
+
+def _default_stage2() -> StageSettings:
+    return StageSettings(steps=300, lr=2e-4, projector_lr=1e-3, batch_size=8)
+
+
+@dataclass
+class TrainConfig:
+    output_dir: str = "runs/train"
+    seed: int = 0
+    model: ModelSettings = field(default_factory=ModelSettings)
+    data: DataSettings = field(default_factory=DataSettings)
+    stage1: StageSettings = field(default_factory=_default_stage1)
+    stage2: StageSettings = field(default_factory=_default_stage2)
+    lora: LoraSettings = field(default_factory=LoraSettings)
+    runtime: RuntimeSettings = field(default_factory=RuntimeSettings)
+
+    def check(self) -> None:
+        self.model.check()
+        self.data.check()
+        self.stage1.check("stage1")
+        self.stage2.check("stage2")
+        self.runtime.check()
+
+    def stage(self, number: int) -> StageSettings:
+        if number not in STAGES:
+            raise ValueError(f"stage must be one of {STAGES}, got {number!r}")
+        return self.stage1 if number == 1 else self.stage2
+
+    def stage_dir(self, number: int) -> Path:
+        return Path(self.output_dir) / f"stage{number}"
+
+    def to_dict(self) -> dict[str, Any]:
+        data = dataclasses.asdict(self)
+        data["lora"]["target_modules"] = list(self.lora.target_modules)
+        return data
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any] | None, *, source: str = "config",
+                  lines: dict[KeyPath, int] | None = None) -> TrainConfig:
+        """Build and check a config; errors name ``source:line`` and the key."""
+        data = dict(data or {})
+        lines = lines or {}
+
+        def where(*path: str | int) -> str:
+            return f"{source}:{line_of(lines, tuple(path))}" if lines else source
+
+        try:
+            reject_unknown_fields(cls, data, "unknown top-level keys", known="declared")
+        except ValueError as exc:
+            raise ValueError(f"{where()}: {exc}") from None
+        sections = {"model": ModelSettings, "data": DataSettings, "stage1": StageSettings, "stage2": StageSettings,
+                    "runtime": RuntimeSettings}
+        built: dict[str, Any] = {}
+        defaults = cls()
+        for name, kind in sections.items():
+            raw = data.get(name)
+            if raw is None:
+                continue
+            if not isinstance(raw, dict):
+                raise ValueError(f"{where(name)}: {name} must be a mapping of settings, got {type(raw).__name__}")
+            try:
+                reject_unknown_fields(kind, raw, f"{name}: unknown keys", known="declared")
+                base = dataclasses.asdict(getattr(defaults, name))
+                built[name] = kind(**{**base, **raw})
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"{where(name)}: {exc}") from None
+        if data.get("lora") is not None:
+            try:
+                built["lora"] = LoraSettings.from_dict(data["lora"])
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"{where('lora')}: {exc}") from None
+        for key in ("output_dir", "seed"):
+            if key in data:
+                built[key] = data[key]
+        if not isinstance(built.get("seed", 0), int):
+            raise ValueError(f"{where('seed')}: seed must be an integer, got {built['seed']!r}")
+        config = cls(**built)
+        try:
+            config.check()
+        except ValueError as exc:
+            section = str(exc).split(".", 1)[0].split(":", 1)[0]
+            raise ValueError(f"{where(section)}: {exc}") from None
+        return config
+
+
+def load_train_config(path: str | Path, overrides: dict[str, Any] | None = None) -> TrainConfig:
+    """Read a YAML training config; ``overrides`` are dotted keys (``{"stage2.steps": 10}``) applied on top."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such training config (see configs/tiny-cpu.yaml)")
+    data, lines = read_yaml(path)
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: a training config must be a mapping of sections, got {type(data).__name__}")
+    for dotted, value in (overrides or {}).items():
+        apply_override(data, dotted, value)
+    return TrainConfig.from_dict(data, source=str(path), lines=lines)
+
+
+def apply_override(data: dict[str, Any], dotted: str, value: Any) -> None:
+    """Set ``data["a"]["b"] = value`` for ``"a.b"`` (creating sections as needed)."""
+    *parents, last = dotted.split(".")
+    node = data
+    for key in parents:
+        child = node.setdefault(key, {})
+        if not isinstance(child, dict):
+            raise ValueError(f"override {dotted}: {key} is not a section")
+        node = child
+    node[last] = value

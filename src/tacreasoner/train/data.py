@@ -1,0 +1,246 @@
+"""Training data for Stages I and II: examples, their videos (preprocessed once), and a resumable batch plan.
+
+- Stage I (alignment) learns to *describe* a clip: the benchmark's train split items that are about one
+  clip (TFA attributes and combined, real vs fake, contact state), answered in plain words, like
+  VTV-150K's raw instruction data.
+- Stage II (SFT) learns to reason: TouchCoT records (``<think>…</think><answer>…</answer>``), or, for the
+  paper's "w/o CoT" ablation, the same train items answered with ``<answer>gold</answer>`` only.
+
+Videos are preprocessed deterministically (uniform sampling, no jitter) once per clip or segment and kept
+in memory, so an epoch never decodes video again and the frozen ViT's tokens can be cached too.
+The batch plan is a pure function of (seed, step): a resumed or multi-process run sees exactly the
+examples an uninterrupted single-process run would.
+"""
+
+from __future__ import annotations
+
+import json
+import random
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from tacreasoner.tasks.schema import TFA_TASKS, QAItem, VideoRef
+
+__all__ = ["STAGE1_TASKS", "TrainExample", "VideoBank", "batch_plan", "load_examples", "tokenize_examples"]
+
+STAGE1_TASKS = (*TFA_TASKS, "RFOR", "OCSE")
+"""Single-clip description tasks: Stage I's alignment data."""
+
+VideoKey = tuple[str, int | None, int | None]
+
+
+@dataclass(frozen=True)
+class TrainExample:
+    key: str
+    task: str
+    question: str
+    target: str
+    videos: tuple[VideoKey, ...]
+    """(absolute video path, segment start, segment end) per ``<tactile>``, in order."""
+
+
+def video_key(ref: VideoRef, root: Path, where: str) -> VideoKey:
+    if not ref.path:
+        raise ValueError(f"{where}: video {ref.clip_id!r} has no path")
+    path = Path(ref.path)
+    path = path if path.is_absolute() else root / path
+    if not path.is_file():
+        raise FileNotFoundError(f"{where}: video {ref.clip_id!r} not found at {path}")
+    return (str(path), ref.start, ref.end)
+
+
+def _bench_items(bench_dir: Path) -> tuple[Path, list[QAItem]]:
+    from tacreasoner.tasks.bench import load_bench
+
+    info, items = load_bench(bench_dir, "train")
+    return bench_video_root(bench_dir, info), items
+
+
+def bench_video_root(bench_dir: Path, info: dict) -> Path:
+    """Where a benchmark's relative video paths start (``video_root`` in bench.json; absolute when built)."""
+    root = Path(info.get("video_root") or bench_dir)
+    return root if root.is_absolute() else bench_dir / root
+
+
+def _from_items(items: Sequence[QAItem], root: Path, target: Callable[[QAItem], str]) -> list[TrainExample]:
+    return [TrainExample(key=item.id, task=item.task, question=item.question, target=target(item),
+                         videos=tuple(video_key(v, root, f"item {item.id!r}") for v in item.videos))
+            for item in items]
+
+
+def _touchcot(path: Path, root: Path) -> list[TrainExample]:
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no TouchCoT training file (run `tacreasoner build-cot`, or set "
+                                f"data.stage2_data: plain)")
+    out = []
+    with path.open(encoding="utf-8") as f:
+        for number, line in enumerate(f, 1):
+            if not line.strip():
+                continue
+            where = f"{path}:{number}"
+            try:
+                record = json.loads(line)
+                refs = [VideoRef(**v) if isinstance(v, dict) else VideoRef(clip_id=str(v), path=str(v))
+                        for v in record["videos"]]
+                out.append(TrainExample(key=str(record["id"]), task=str(record["task"]),
+                                        question=str(record["question"]), target=str(record["output"]),
+                                        videos=tuple(video_key(r, root, where) for r in refs)))
+            except (json.JSONDecodeError, KeyError, TypeError) as exc:
+                raise ValueError(f"{where}: not a TouchCoT training record ({type(exc).__name__}: {exc}); "
+                                 f"expected id, task, question, videos, output") from None
+    return out
+
+
+def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None = None, stage2_data: str = "touchcot",
+                  tasks: Sequence[str] | None = None, max_items: int | None = None) -> list[TrainExample]:
+    """The examples of ``stage`` (see the module doc); TSA is never among them."""
+    bench = Path(bench)
+    root, items = _bench_items(bench)
+    if stage == 1:
+        examples = _from_items([i for i in items if i.task in STAGE1_TASKS], root, lambda i: i.answer)
+    elif stage2_data == "plain":
+        examples = _from_items([i for i in items if i.task != "TSA"], root, lambda i: f"<answer>{i.answer}</answer>")
+    else:
+        if touchcot is None:
+            raise ValueError("data.touchcot: Stage II on TouchCoT needs the training JSONL from build-cot")
+        examples = [e for e in _touchcot(Path(touchcot), root) if e.task != "TSA"]
+    if tasks is not None:
+        examples = [e for e in examples if e.task in set(tasks)]
+    if max_items is not None:
+        examples = examples[:max_items]
+    if not examples:
+        raise ValueError(f"stage {stage}: no training examples (bench {bench}, tasks {list(tasks or []) or 'all'})")
+    return examples
+
+
+# ------------------------------------------------------------------------------------------ tokens
+
+
+@dataclass
+class Tokenized:
+    input_ids: list[int]
+    labels: list[int]
+    question_mask: list[int]
+    videos: tuple[VideoKey, ...]
+    key: str
+
+    @property
+    def n_labels(self) -> int:
+        return sum(1 for t in self.labels if t != -100)
+
+
+def tokenize_examples(processor: Any, examples: Sequence[TrainExample], max_length: int,
+                      system: str | None = None) -> tuple[list[Tokenized], list[str]]:
+    """Token ids + labels (assistant only) for each example; those over ``max_length`` are returned by key."""
+    kept, dropped = [], []
+    for e in examples:
+        enc = processor.encode_conversation(processor.messages(e.question, e.target, system),
+                                            add_generation_prompt=False)
+        if len(enc.input_ids) > max_length:
+            dropped.append(e.key)
+            continue
+        kept.append(Tokenized(enc.input_ids, enc.labels, enc.question_mask, e.videos, e.key))
+    return kept, dropped
+
+
+# ------------------------------------------------------------------------------------------ videos
+
+
+class VideoBank:
+    """Preprocessed videos (and optionally the frozen ViT's tokens), computed once per clip or segment."""
+
+    def __init__(self, video_config: Any, sensor_types: Sequence[str]) -> None:
+        self.video_config = video_config
+        self.sensor_types = list(sensor_types)
+        self.index: dict[VideoKey, int] = {}
+        self.pixels: torch.Tensor | None = None
+        self.sensors: torch.Tensor | None = None
+        self.appearance: torch.Tensor | None = None
+
+    def build(self, keys: Sequence[VideoKey], progress: Callable[[int, int], None] | None = None) -> None:
+        from tacreasoner.data.cache import load_frames
+        from tacreasoner.data.sampling import background_frame
+        from tacreasoner.model.video_processing import preprocess_video
+
+        unique = list(dict.fromkeys(keys))
+        arrays, sensors = [], []
+        for n, (path, start, end) in enumerate(unique, 1):
+            try:
+                frames = load_frames(path)
+            except (OSError, ValueError) as exc:
+                raise ValueError(f"{path}: cannot decode training video ({exc})") from None
+            segment = frames[start:end] if (start is not None or end is not None) else frames
+            if len(segment) == 0:
+                raise ValueError(f"{path}: segment [{start}, {end}) holds no frames")
+            arrays.append(preprocess_video(segment, self.video_config, background=background_frame(frames)))
+            sensor = Path(path).parent.name.split("+")[0].split("@")[0].lower()
+            sensors.append(self.sensor_types.index(sensor) if sensor in self.sensor_types else 0)
+            if progress is not None:
+                progress(n, len(unique))
+        self.index = {k: i for i, k in enumerate(unique)}
+        self.pixels = torch.from_numpy(np.stack(arrays)) if arrays else None
+        self.sensors = torch.tensor(sensors, dtype=torch.long)
+
+    @torch.no_grad()
+    def cache_appearance(self, tactile_encoder: Any, batch_size: int = 64) -> None:
+        """Run the frozen appearance ViT once over every video (identical to running it each step)."""
+        if self.pixels is None:
+            return
+        param = next(tactile_encoder.appearance.parameters())
+        out = [tactile_encoder.appearance_tokens(self.pixels[i:i + batch_size].to(param.device, param.dtype)).cpu()
+               for i in range(0, len(self.pixels), batch_size)]
+        self.appearance = torch.cat(out)
+
+    def batch(self, keys: Sequence[VideoKey]) -> dict[str, torch.Tensor]:
+        assert self.pixels is not None and self.sensors is not None
+        idx = torch.tensor([self.index[k] for k in keys], dtype=torch.long)
+        out = {"pixel_values": self.pixels[idx], "sensor_ids": self.sensors[idx]}
+        if self.appearance is not None:
+            out["appearance_tokens"] = self.appearance[idx]
+        return out
+
+
+def collate(processor: Any, examples: Sequence[Tokenized], bank: VideoBank) -> dict[str, Any]:
+    """Right-padded ids/labels/masks plus the videos of every example, in order (what the model expects)."""
+    batch = processor.collate([{"input_ids": e.input_ids, "labels": e.labels, "question_mask": e.question_mask,
+                                "pixel_values": torch.zeros(0), "sensor_ids": torch.zeros(0, dtype=torch.long)}
+                               for e in examples])
+    batch = dict(batch)
+    batch.update(bank.batch([k for e in examples for k in e.videos]))
+    return batch
+
+
+# ------------------------------------------------------------------------------------------ order
+
+
+def batch_plan(lengths: Sequence[int], global_batch: int, step: int, seed: int, group_by_length: bool) -> list[int]:
+    """Example indices of optimizer step ``step`` (global batch), a pure function of its arguments.
+
+    Each epoch is a seeded shuffle; with ``group_by_length`` the shuffle is cut into chunks of 32 global
+    batches, each sorted by length (less padding), and the batches then shuffled again.
+    """
+    n = len(lengths)
+    if n == 0:
+        raise ValueError("no training examples")
+    per_epoch = max(1, n // global_batch)
+    epoch, within = divmod(step, per_epoch)
+    order = list(range(n))
+    rng = random.Random(seed * 1_000_003 + epoch)
+    rng.shuffle(order)
+    if n < global_batch:  # tiny data: repeat the shuffled list to fill one batch
+        order = (order * (global_batch // n + 1))[:global_batch]
+    order = order[: per_epoch * global_batch]
+    if group_by_length:
+        chunk = 32 * global_batch
+        grouped: list[list[int]] = []
+        for c in range(0, len(order), chunk):
+            part = sorted(order[c:c + chunk], key=lambda i: lengths[i])
+            grouped += [part[b:b + global_batch] for b in range(0, len(part), global_batch)]
+        rng.shuffle(grouped)
+        return grouped[within]
+    return order[within * global_batch:(within + 1) * global_batch]

@@ -1,0 +1,410 @@
+"""One trainer for Stage I (alignment) and Stage II (LoRA SFT), on Hugging Face Accelerate.
+
+Read top to bottom: check the config and inputs → build the model (Stage I from the LLM + appearance
+encoder; Stage II from Stage I's model) → choose what trains (``model.stages.configure_stage``) →
+tokenise the examples and preprocess every video once → AdamW with a separate projector LR and a
+warmup + cosine schedule → ``accelerator.prepare`` (CPU, one GPU, DDP, FSDP or DeepSpeed, decided by
+``accelerate launch`` / ``torchrun``) → the loop → the model.
+
+The loop's loss is a sum over answer tokens divided by the number of answer tokens in the *global*
+batch (all processes and micro-batches), so 2 processes × batch 4, 1 process × batch 8 and 1 process
+× batch 4 × 2 accumulation steps all take the same optimizer step. The batch of step ``s`` is a pure
+function of (seed, s) (:func:`tacreasoner.train.data.batch_plan`) and checkpoints hold trainable
+weights, optimizer, scheduler and RNG state, so a killed run resumed with ``resume=True`` ends where
+an uninterrupted run would.
+
+Files under ``<output_dir>/stage<N>/``: ``checkpoints/step-*`` (atomic), ``train_log.jsonl``,
+``logs/`` (TensorBoard), ``run.json`` (config, data counts, timing), then ``model/`` (model + processor;
+Stage II: merged) and, for Stage II, ``adapter/`` (LoRA + projector, PEFT format).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from contextlib import nullcontext
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import torch
+
+from tacreasoner.train.config import TrainConfig
+from tacreasoner.train.data import VideoBank, batch_plan, collate, load_examples, tokenize_examples
+from tacreasoner.train.state import (
+    cosine_with_warmup,
+    free_threads,
+    latest_checkpoint,
+    load_checkpoint,
+    save_checkpoint,
+    seed_everything,
+    truncate_log,
+    write_json,
+)
+
+__all__ = ["NonFiniteLossError", "StageResult", "check_inputs", "train_stage"]
+
+CHECKPOINTS = "checkpoints"
+LOG_FILE = "train_log.jsonl"
+RUN_FILE = "run.json"
+MODEL_DIR = "model"
+ADAPTER_DIR = "adapter"
+
+
+class NonFiniteLossError(RuntimeError):
+    """The loss became NaN or infinite; the message names the step, micro-batch and examples."""
+
+
+@dataclass
+class StageResult:
+    stage: int
+    model_dir: Path
+    steps: int
+    final_loss: float | None
+    train_seconds: float
+    examples: int
+    resumed_from: int
+
+
+# ------------------------------------------------------------------------------------------ checks
+
+
+def _looks_local(name: str) -> bool:
+    """A path rather than a hub id ("org/name"): it exists, starts like a path, or its first part is a local folder."""
+    parts = Path(name).parts
+    return (Path(name).exists() or name.startswith((".", "/", "~")) or len(parts) != 2
+            or Path(parts[0]).is_dir())
+
+
+def check_inputs(config: TrainConfig, stage: int) -> None:
+    """Every file a stage needs exists, before a model is loaded (a typo should cost seconds, not a load)."""
+    config.check()
+    bench = Path(config.data.bench)
+    if not (bench / "bench.json").is_file():
+        raise FileNotFoundError(f"data.bench: {bench} is not a benchmark directory (no bench.json; run "
+                                f"`tacreasoner build-bench`)")
+    touchcot = config.data.touchcot
+    if stage == 2 and config.data.stage2_data == "touchcot" and not (touchcot and Path(touchcot).is_file()):
+        raise FileNotFoundError(f"data.touchcot: {touchcot} does not exist (run `tacreasoner build-cot`, or set "
+                                f"data.stage2_data: plain)")
+    if stage == 2 and not config.stage1.skip:
+        model_dir = config.stage_dir(1) / MODEL_DIR
+        if not (model_dir / "config.json").is_file():
+            raise FileNotFoundError(f"{model_dir}: no Stage I model; run `tacreasoner train --stage 1` with this "
+                                    f"config first (or set stage1.skip: true)")
+    else:
+        llm = config.model.llm
+        if _looks_local(llm) and not (Path(llm) / "config.json").is_file():
+            raise FileNotFoundError(f"model.llm: {llm} has no config.json (run `tacreasoner pretrain-llm --out "
+                                    f"{llm}`, or give a hub id such as Qwen/Qwen2.5-7B-Instruct)")
+    app = config.model.appearance
+    if app is not None and not (Path(app) / "config.json").is_file():
+        raise FileNotFoundError(f"model.appearance: {app} has no config.json (run `tacreasoner pretrain-encoder`)")
+
+
+# ------------------------------------------------------------------------------------------ building
+
+
+def _mixed_precision(setting: str) -> str:
+    if setting != "auto":
+        return setting
+    if torch.cuda.is_available():
+        return "bf16" if torch.cuda.is_bf16_supported() else "no"
+    from tacreasoner.train.pretrain_llm import bf16_supported
+
+    return "bf16" if bf16_supported() else "no"
+
+
+def _build(config: TrainConfig, stage: int) -> tuple[Any, Any]:
+    """The model a stage starts from and its processor."""
+    from tacreasoner.model.build import build_model, load_model
+
+    dtype = {"float32": torch.float32, "bfloat16": torch.bfloat16, "float16": torch.float16,
+             "auto": "auto"}[config.model.dtype]
+    kwargs: dict[str, Any] = {"dtype": dtype}
+    if config.model.attn_implementation:
+        kwargs["attn_implementation"] = config.model.attn_implementation
+    if stage == 2 and not config.stage1.skip:
+        return load_model(config.stage_dir(1) / MODEL_DIR, **kwargs)
+    return build_model(config.model.llm, appearance=config.model.appearance, encoder=config.model.encoder,
+                       system_prompt=config.model.system_prompt, **kwargs)
+
+
+def _param_groups(model: torch.nn.Module, lr: float, projector_lr: float, weight_decay: float) -> list[dict]:
+    from tacreasoner.model.stages import no_decay_parameter_names
+
+    no_decay = no_decay_parameter_names(model)
+    groups: dict[tuple[bool, bool], list[torch.nn.Parameter]] = {}
+    for name, p in model.named_parameters():
+        if p.requires_grad:
+            groups.setdefault(("projector" in name, name in no_decay), []).append(p)
+    return [{"params": params, "lr": projector_lr if is_proj else lr, "weight_decay": 0.0 if nd else weight_decay}
+            for (is_proj, nd), params in sorted(groups.items())]
+
+
+def _trainable_state(model: torch.nn.Module) -> dict[str, torch.Tensor]:
+    return {name: p.detach() for name, p in model.named_parameters() if p.requires_grad}
+
+
+# ------------------------------------------------------------------------------------------ progress
+
+
+class _Bar:
+    def __init__(self, enabled: bool, label: str) -> None:
+        self.progress = None
+        self.label = label
+        if enabled:
+            from rich.console import Console
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+            self.progress = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                                     TextColumn("{task.fields[info]}"), TimeElapsedColumn(),
+                                     console=Console(stderr=True))
+            self.progress.start()
+        self.task = None
+
+    def stage(self, description: str, total: int, done: int = 0) -> None:
+        if self.progress is not None:
+            if self.task is not None:
+                self.progress.stop_task(self.task)
+            self.task = self.progress.add_task(description, total=total, completed=done, info="")
+
+    def update(self, done: int, total: int | None = None, info: str = "") -> None:
+        if self.progress is not None and self.task is not None:
+            self.progress.update(self.task, completed=done, info=info)
+
+    def close(self) -> None:
+        if self.progress is not None:
+            self.progress.stop()
+
+
+# ------------------------------------------------------------------------------------------ the run
+
+
+def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_after: int | None = None,
+                on_log: Callable[[dict[str, Any]], None] | None = None,
+                loss_hook: Callable[[int, int, torch.Tensor], torch.Tensor] | None = None) -> StageResult:
+    """Run Stage ``stage`` of ``config``; returns where the model was written.
+
+    ``resume``: continue from the newest checkpoint (a fresh start when there is none). Without it, a
+    stage directory holding checkpoints is refused rather than overwritten. ``stop_after``: stop after
+    that many steps without the final save (tests of interrupted runs). ``loss_hook(step, micro, loss)``
+    may replace a micro-batch's loss (tests of the non-finite-loss guard).
+    """
+    from accelerate import Accelerator
+
+    settings = config.stage(stage)
+    if settings.skip:
+        raise ValueError(f"stage{stage}.skip is true in this config: nothing to train")
+    check_inputs(config, stage)
+    out = config.stage_dir(stage)
+    ckpt_dir = out / CHECKPOINTS
+    latest = latest_checkpoint(ckpt_dir) if ckpt_dir.is_dir() else None
+    if latest is not None and not resume:
+        raise ValueError(f"{out} already holds a Stage {stage} run ({latest.name}): resume it (--resume) or choose "
+                         f"another output_dir")
+
+    threads_before = torch.get_num_threads()
+    if not torch.cuda.is_available():
+        torch.set_num_threads(config.runtime.threads or free_threads())
+    log_with = None if config.runtime.log_with == "none" else config.runtime.log_with
+    if log_with == "tensorboard":
+        try:
+            import tensorboard  # noqa: F401
+        except ImportError:
+            raise ValueError('runtime.log_with: tensorboard needs the tensorboard package (pip install -e ".[train]")'
+                             ', or set runtime.log_with: none') from None
+    accelerator = Accelerator(mixed_precision=_mixed_precision(config.runtime.mixed_precision), log_with=log_with,
+                              project_dir=str(out / "logs"))
+    main = accelerator.is_main_process
+    bar = _Bar(config.runtime.progress and main, f"stage {stage}")
+    try:
+        return _run(config, stage, accelerator, bar, latest, stop_after, on_log, loss_hook)
+    finally:
+        bar.close()
+        accelerator.end_training()
+        torch.set_num_threads(threads_before)
+
+
+def _run(config: TrainConfig, stage: int, accelerator: Any, bar: _Bar, latest: Path | None, stop_after: int | None,
+         on_log: Callable[[dict[str, Any]], None] | None,
+         loss_hook: Callable[[int, int, torch.Tensor], torch.Tensor] | None) -> StageResult:
+    from tacreasoner.model.stages import configure_stage
+
+    settings = config.stage(stage)
+    out = config.stage_dir(stage)
+    started = time.perf_counter()
+    seed_everything(config.seed)
+    model, processor = _build(config, stage)
+    if config.model.gradient_checkpointing:
+        model.language_model.gradient_checkpointing_enable(gradient_checkpointing_kwargs={"use_reentrant": False})
+    trained = configure_stage(model, stage, config.lora)
+    base = model  # the TacReasonerForCausalLM inside (PEFT wraps it in Stage II)
+
+    examples = load_examples(stage, config.data.bench, touchcot=config.data.touchcot,
+                             stage2_data=config.data.stage2_data, tasks=config.data.tasks,
+                             max_items=config.data.max_items)
+    tokenized, dropped = tokenize_examples(processor, examples, config.data.max_length)
+    if not tokenized:
+        raise ValueError(f"every example is longer than data.max_length={config.data.max_length} tokens")
+    bank = VideoBank(processor.video_config, processor.sensor_types)
+    bar.stage("preprocessing videos", 1)
+    bank.build([k for e in tokenized for k in e.videos], progress=lambda d, t: bar.update(d, info=f"{d}/{t}"))
+    if config.data.cache_appearance:
+        bank.cache_appearance(base.tactile_encoder)
+
+    world = accelerator.num_processes
+    global_batch = settings.batch_size * settings.grad_accum * world
+    lengths = [len(e.input_ids) for e in tokenized]
+    optimizer = torch.optim.AdamW(_param_groups(trained, settings.lr, settings.projector_lr or settings.lr,
+                                                settings.weight_decay), betas=(0.9, 0.999))
+    scheduler = cosine_with_warmup(optimizer, round(settings.warmup_ratio * settings.steps), settings.steps,
+                                   settings.min_lr_ratio)
+    start = 0
+    if latest is not None:
+        weights, state = load_checkpoint(latest, optimizer, scheduler)
+        saved = state.extra.get("fingerprint")
+        now = _fingerprint(config, stage, world)
+        if saved is not None and saved != now:
+            changed = sorted(k for k in now if saved.get(k) != now[k])
+            raise ValueError(f"{latest}: was made with different settings ({', '.join(changed)}); resume with the "
+                             f"original config or choose another output_dir")
+        missing = set(_trainable_state(trained)) - set(weights)
+        if missing:
+            raise ValueError(f"{latest}: lacks trainable weights {sorted(missing)[:5]}")
+        with torch.no_grad():
+            for name, p in trained.named_parameters():
+                if name in weights:
+                    p.copy_(weights[name])
+        start = state.step
+    trained, optimizer = accelerator.prepare(trained, optimizer)
+    trained.train()
+
+    run_info = {"stage": stage, "config": config.to_dict(), "examples": len(tokenized),
+                "dropped_too_long": len(dropped), "dropped_examples": dropped[:20], "videos": len(bank.index),
+                "processes": world, "global_batch": global_batch,
+                "mixed_precision": accelerator.mixed_precision, "device": str(accelerator.device),
+                "trainable_parameters": sum(p.numel() for p in base.parameters() if p.requires_grad),
+                "total_parameters": sum(p.numel() for p in base.parameters())}
+    if accelerator.is_main_process:
+        out.mkdir(parents=True, exist_ok=True)
+        write_json(out / RUN_FILE, run_info)
+        if config.runtime.log_with != "none":
+            accelerator.init_trackers(f"stage{stage}", config={k: v for k, v in _flat(config.to_dict()).items()
+                                                              if isinstance(v, int | float | str | bool)})
+        truncate_log(out / LOG_FILE, start)
+
+    bar.stage(f"stage {stage} training", settings.steps, start)
+    rank, last_loss = accelerator.process_index, None
+    tokens_window, window_start, train_start = 0, time.perf_counter(), time.perf_counter()
+    elapsed_before = 0.0
+    if latest is not None:
+        elapsed_before = float(load_state_extra(latest).get("train_seconds", 0.0))
+    losses: list[float] = []
+    for step in range(start, settings.steps):
+        if stop_after is not None and step >= stop_after:
+            accelerator.wait_for_everyone()
+            return StageResult(stage, out, step, last_loss, 0.0, len(tokenized), start)
+        indices = batch_plan(lengths, global_batch, step, config.seed, config.data.group_by_length)
+        mine = indices[rank * settings.batch_size * settings.grad_accum:(rank + 1) * settings.batch_size
+                       * settings.grad_accum]
+        micro = [mine[i:i + settings.batch_size] for i in range(0, len(mine), settings.batch_size)]
+        global_tokens = sum(tokenized[i].n_labels for i in indices)
+        step_loss = torch.zeros((), device=accelerator.device)
+        for m, chunk in enumerate(micro):
+            batch = {k: v.to(accelerator.device) if torch.is_tensor(v) else v
+                     for k, v in collate(processor, [tokenized[i] for i in chunk], bank).items()}
+            sync = m == len(micro) - 1
+            ctx = accelerator.no_sync(trained) if not sync and world > 1 else nullcontext()
+            with ctx, accelerator.autocast():
+                # the LM's loss is sum / num_items_in_batch; DDP then averages over processes, hence × world
+                loss = trained(**batch, num_items_in_batch=global_tokens / world).loss
+                if loss_hook is not None:
+                    loss = loss_hook(step, m, loss)
+                if not torch.isfinite(loss.detach()).all():
+                    ids = [tokenized[i].key for i in chunk]
+                    raise NonFiniteLossError(
+                        f"stage {stage}: the loss is {loss.item()} at step {step + 1} (micro-batch {m + 1} of "
+                        f"{len(micro)}, process {rank}); examples {ids[:8]}. Lower stage{stage}.lr, check the "
+                        f"data of these examples, or use runtime.mixed_precision: no")
+                accelerator.backward(loss)
+            step_loss += loss.detach()
+        accelerator.clip_grad_norm_(trained.parameters(), settings.max_grad_norm)
+        optimizer.step()
+        scheduler.step()
+        optimizer.zero_grad(set_to_none=True)
+        done = step + 1
+        # mean token loss of the global batch: per-process partial sums added up
+        last_loss = float(accelerator.reduce(step_loss, reduction="sum")) / world
+        losses.append(last_loss)
+        tokens_window += sum(len(tokenized[i].input_ids) for i in indices)
+        if done % config.runtime.log_every == 0 or done == settings.steps:
+            elapsed = time.perf_counter() - window_start
+            record = {"step": done, "loss": round(sum(losses) / len(losses), 5), "lr": scheduler.get_last_lr()[0],
+                      "projector_lr": scheduler.get_last_lr()[-1],
+                      "tokens_per_s": round(tokens_window / max(elapsed, 1e-9), 1),
+                      "examples_per_s": round(len(indices) * len(losses) / max(elapsed, 1e-9), 2),
+                      "elapsed_s": round(elapsed_before + time.perf_counter() - train_start, 2)}
+            if accelerator.is_main_process:
+                with (out / LOG_FILE).open("a", encoding="utf-8") as f:
+                    f.write(json.dumps(record) + "\n")
+                if config.runtime.log_with != "none":
+                    accelerator.log({f"train/{k}": v for k, v in record.items() if k != "step"}, step=done)
+                if on_log is not None:
+                    on_log(record)
+            bar.update(done, info=f"loss {record['loss']:.4f}  {record['tokens_per_s']:,.0f} tokens/s")
+            losses, tokens_window, window_start = [], 0, time.perf_counter()
+        if done % config.runtime.checkpoint_every == 0 or done == settings.steps:
+            accelerator.wait_for_everyone()
+            if accelerator.is_main_process:
+                save_checkpoint(out / CHECKPOINTS, done, _trainable_state(accelerator.unwrap_model(trained)),
+                                optimizer, scheduler, keep=config.runtime.keep_checkpoints,
+                                extra={"fingerprint": _fingerprint(config, stage, world), "loss": last_loss,
+                                       "train_seconds": elapsed_before + time.perf_counter() - train_start})
+    train_seconds = elapsed_before + time.perf_counter() - train_start
+    accelerator.wait_for_everyone()
+    model_dir = out / MODEL_DIR
+    if accelerator.is_main_process:
+        _save(accelerator.unwrap_model(trained), processor, stage, out)
+        run_info.update({"steps_done": settings.steps, "final_loss": last_loss,
+                         "train_seconds": round(train_seconds, 1),
+                         "total_seconds_this_call": round(time.perf_counter() - started, 1),
+                         "resumed_from_step": start})
+        write_json(out / RUN_FILE, run_info)
+    accelerator.wait_for_everyone()
+    return StageResult(stage, model_dir, settings.steps, last_loss, train_seconds, len(tokenized), start)
+
+
+def _save(trained: Any, processor: Any, stage: int, out: Path) -> None:
+    from tacreasoner.model.build import save_model
+
+    trained.eval()
+    if stage == 1:
+        save_model(trained, processor, out / MODEL_DIR)
+        return
+    save_model(trained, processor, out / ADAPTER_DIR)  # PEFT: writes the adapter (LoRA + projector) only
+    merged = trained.merge_and_unload()
+    save_model(merged, processor, out / MODEL_DIR)
+
+
+def _fingerprint(config: TrainConfig, stage: int, world: int) -> dict[str, Any]:
+    """Settings that must not change between a checkpoint and its resumption."""
+    d = config.to_dict()
+    return {"stage": stage, "seed": config.seed, "model": d["model"], "data": d["data"],
+            "stage_settings": d[f"stage{stage}"], "lora": d["lora"] if stage == 2 else None,
+            "global_batch": config.stage(stage).batch_size * config.stage(stage).grad_accum * world}
+
+
+def load_state_extra(path: Path) -> dict[str, Any]:
+    return json.loads((path / "state.json").read_text(encoding="utf-8")).get("extra", {})
+
+
+def _flat(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_flat(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out

@@ -1,0 +1,114 @@
+"""Stage I → Stage II on a tiny real setup: outputs, resume equality, accumulation equivalence, NaN guard."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import torch
+from safetensors.torch import load_file
+from trainsetup import training_inputs, tiny_config
+
+from tacreasoner.train.trainer import NonFiniteLossError, train_stage
+
+
+@pytest.fixture(scope="module")
+def inputs(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    return training_inputs(small_sim_dataset, tmp_path_factory.mktemp("train_inputs"))
+
+
+@pytest.fixture(scope="module")
+def two_stage_run(inputs, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("two_stage")
+    config = tiny_config(inputs, out, runtime={"log_with": "tensorboard"})
+    train_stage(config, 1)
+    train_stage(config, 2)
+    return out
+
+
+def _adapter_weights(run: Path) -> dict[str, torch.Tensor]:
+    return load_file(str(run / "stage2" / "adapter" / "adapter_model.safetensors"))
+
+
+def test_two_stages_write_models_adapter_logs_and_run_reports(two_stage_run: Path) -> None:
+    for stage in (1, 2):
+        root = two_stage_run / f"stage{stage}"
+        assert (root / "model" / "config.json").is_file() and (root / "model" / "processor_config.json").is_file()
+        log = [json.loads(line) for line in (root / "train_log.jsonl").read_text().splitlines()]
+        assert [r["step"] for r in log] == [1, 2, 3]
+        assert all(r["loss"] > 0 and r["tokens_per_s"] > 0 for r in log)
+        run = json.loads((root / "run.json").read_text())
+        assert run["steps_done"] == 3 and run["examples"] > 0 and run["trainable_parameters"] > 0
+        assert list((root / "logs").rglob("events.out.tfevents*")), "TensorBoard event file missing"
+    assert (two_stage_run / "stage2" / "adapter" / "adapter_config.json").is_file()
+    names = set(_adapter_weights(two_stage_run))
+    assert any("lora_A" in n for n in names) and any("projector" in n for n in names)
+    stage1 = json.loads((two_stage_run / "stage1" / "run.json").read_text())
+    stage2 = json.loads((two_stage_run / "stage2" / "run.json").read_text())
+    # Stage I trains the temporal branch etc. with the LLM frozen; Stage II only LoRA + projector
+    assert stage1["trainable_parameters"] != stage2["trainable_parameters"]
+
+
+def test_stage_two_changes_what_stage_one_produced(two_stage_run: Path) -> None:
+    from tacreasoner.model.build import load_model
+
+    one, _ = load_model(two_stage_run / "stage1" / "model")
+    two, _ = load_model(two_stage_run / "stage2" / "model")
+    q1 = one.language_model.model.layers[0].self_attn.q_proj.weight
+    q2 = two.language_model.model.layers[0].self_attn.q_proj.weight
+    assert not torch.equal(q1, q2), "the merged LoRA should have changed q_proj"
+    t1, t2 = one.tactile_encoder.temporal.state_dict(), two.tactile_encoder.temporal.state_dict()
+    assert all(torch.equal(t1[k], t2[k]) for k in t1), "Stage II must not touch the temporal branch"
+
+
+def test_killed_run_resumes_to_the_uninterrupted_result(inputs, tmp_path) -> None:
+    def run(out: Path, stop_after: int | None = None) -> None:
+        config = tiny_config(inputs, out, stage1={"skip": True}, stage2={"steps": 5},
+                             lora={"r": 8, "alpha": 16, "dropout": 0.1})
+        train_stage(config, 2, stop_after=stop_after)
+
+    run(tmp_path / "straight")
+    run(tmp_path / "killed", stop_after=3)  # checkpoint at step 2, then "killed" during step 3
+    assert not (tmp_path / "killed" / "stage2" / "adapter").exists()
+    with pytest.raises(ValueError, match="resume"):
+        run(tmp_path / "killed")
+    config = tiny_config(inputs, tmp_path / "killed", stage1={"skip": True}, stage2={"steps": 5},
+                         lora={"r": 8, "alpha": 16, "dropout": 0.1})
+    result = train_stage(config, 2, resume=True)
+    assert result.resumed_from == 2
+    a, b = _adapter_weights(tmp_path / "straight"), _adapter_weights(tmp_path / "killed")
+    assert a.keys() == b.keys()
+    for name in a:
+        torch.testing.assert_close(a[name], b[name], rtol=0, atol=1e-6, msg=name)
+    log = [json.loads(line)["step"] for line in (tmp_path / "killed" / "stage2" / "train_log.jsonl").read_text()
+           .splitlines()]
+    assert log == [1, 2, 3, 4, 5], "the log must not repeat the redone steps"
+
+
+def test_gradient_accumulation_matches_a_larger_batch(inputs, tmp_path) -> None:
+    common = {"stage1": {"skip": True}}
+    big = tiny_config(inputs, tmp_path / "big", stage2={"steps": 2, "batch_size": 4, "grad_accum": 1}, **common)
+    acc = tiny_config(inputs, tmp_path / "acc", stage2={"steps": 2, "batch_size": 2, "grad_accum": 2}, **common)
+    train_stage(big, 2)
+    train_stage(acc, 2)
+    a, b = _adapter_weights(tmp_path / "big"), _adapter_weights(tmp_path / "acc")
+    for name in a:
+        torch.testing.assert_close(a[name], b[name], rtol=1e-4, atol=1e-5, msg=name)
+
+
+def test_non_finite_loss_stops_naming_the_step_and_examples(inputs, tmp_path) -> None:
+    config = tiny_config(inputs, tmp_path, stage1={"steps": 4})
+
+    def poison(step: int, micro: int, loss: torch.Tensor) -> torch.Tensor:
+        return loss * float("nan") if step == 2 else loss
+
+    with pytest.raises(NonFiniteLossError, match=r"nan at step 3 \(micro-batch 1 of 1.*examples \['"):
+        train_stage(config, 1, loss_hook=poison)
+    assert not (tmp_path / "stage1" / "model").exists()
+
+
+def test_stage_two_without_stage_one_output_is_refused_before_loading(inputs, tmp_path) -> None:
+    config = tiny_config(inputs, tmp_path)
+    with pytest.raises(FileNotFoundError, match="no Stage I model"):
+        train_stage(config, 2)

@@ -1,0 +1,71 @@
+"""A tiny but real training setup, built once per test session: benchmark, TouchCoT, and a tiny LLM on disk.
+
+The LLM is a 2-layer Qwen2 with a BPE tokenizer trained on the TouchCoT texts, saved the way
+``pretrain-llm`` saves one, so the trainer takes exactly the path it takes with the real tiny LLM or a
+Qwen2.5 checkpoint. The appearance ViT is randomly initialised (no ``pretrain-encoder`` run needed).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from tacreasoner.train.config import TrainConfig
+
+_BUILT: dict[Path, dict[str, Path]] = {}
+
+ENCODER = {"num_frames": 4, "image_size": [32, 32], "patch_size": 8, "hidden_size": 32, "num_layers": 1,
+           "num_heads": 2, "temporal_hidden_size": 32, "temporal_tokens": 2, "fusion_heads": 2, "tokens_per_video": 3}
+
+
+def training_inputs(dataset: Path, workdir: Path) -> dict[str, Path]:
+    """{bench, touchcot, llm} built from the session's small simulated dataset (once)."""
+    if dataset in _BUILT:
+        return _BUILT[dataset]
+    from transformers import Qwen2Config, Qwen2ForCausalLM
+
+    from tacreasoner.cot.backends import TeacherConfig
+    from tacreasoner.cot.build import build_cot
+    from tacreasoner.model.tokenizer import train_tokenizer
+    from tacreasoner.tasks.bench import build_bench
+
+    bench = workdir / "bench"
+    build_bench("sim", dataset, bench, seed=0, heldout_sensor="digit")
+    build_cot(bench, workdir / "cot", TeacherConfig(backend="rules", model="rules-v1"), workers=1)
+    touchcot = workdir / "cot" / "touchcot" / "touchcot_train.jsonl"
+    texts = [json.loads(line)["question"] + " " + json.loads(line)["output"]
+             for line in touchcot.read_text(encoding="utf-8").splitlines()]
+    tokenizer = train_tokenizer(texts * 2, vocab_size=700)
+    llm = workdir / "llm"
+    config = Qwen2Config(vocab_size=len(tokenizer), hidden_size=64, num_hidden_layers=2, num_attention_heads=4,
+                         num_key_value_heads=2, intermediate_size=128, max_position_embeddings=1024,
+                         tie_word_embeddings=True, eos_token_id=tokenizer.eos_token_id,
+                         pad_token_id=tokenizer.pad_token_id)
+    import torch
+
+    torch.manual_seed(0)
+    Qwen2ForCausalLM(config).save_pretrained(llm)
+    tokenizer.save_pretrained(llm)
+    _BUILT[dataset] = {"bench": bench, "touchcot": touchcot, "llm": llm}
+    return _BUILT[dataset]
+
+
+def tiny_config(inputs: dict[str, Path], output_dir: Path, **sections: Any) -> TrainConfig:
+    """A few-step config over ``inputs``; ``sections`` update sections (``stage2={"steps": 6}``) or top-level keys."""
+    data: dict[str, Any] = {
+        "output_dir": str(output_dir), "seed": 0,
+        "model": {"llm": str(inputs["llm"]), "appearance": None, "encoder": dict(ENCODER)},
+        "data": {"bench": str(inputs["bench"]), "touchcot": str(inputs["touchcot"]), "max_length": 1024},
+        "stage1": {"steps": 3, "batch_size": 4, "lr": 1e-3},
+        "stage2": {"steps": 3, "batch_size": 4, "lr": 1e-3, "projector_lr": 1e-3},
+        "lora": {"r": 8, "alpha": 16, "dropout": 0.0},
+        "runtime": {"log_with": "none", "progress": False, "threads": 1, "log_every": 1, "checkpoint_every": 2,
+                    "mixed_precision": "no"},
+    }
+    for key, value in sections.items():
+        if isinstance(value, dict):
+            data[key] = {**data.get(key, {}), **value}
+        else:
+            data[key] = value
+    return TrainConfig.from_dict(data)
