@@ -286,9 +286,15 @@ def quickstart(
     seed: Seed = 0,
     workers: Workers = None,
     overwrite: Overwrite = False,
+    seeds: Annotated[int, typer.Option("--seeds", help="Training seeds (Stage I + II each); the report gives "
+                                                       "mean ± std over them.")] = 3,
+    train_model: Annotated[bool, typer.Option("--train/--no-train", help="Pre-train, train Stage I + II, evaluate "
+                                                                          "and ask (off: data stages only).")] = True,
 ) -> None:
-    """Run the pipeline end to end: simulate → preview → benchmark → baselines → TouchCoT (resumable)."""
+    """The whole paper on this machine: simulate → benchmark → TouchCoT → pre-train → Stage I → Stage II →
+    evaluate on held-out objects → report → ask (resumable: re-running skips finished work)."""
     _at_least_one("--workers", workers)
+    _at_least_one("--seeds", seeds)
     sim_dir, preview_dir, bench_dir = out / "sim", out / "preview", out / "bench"
 
     def simulate_stage() -> list[str]:
@@ -305,10 +311,93 @@ def quickstart(
         Stage("touchcot", f"chain-of-thought training data, offline rules teacher → {out / 'touchcot'}",
               lambda: _touchcot_stage(bench_dir, out / "touchcot", workers or 2, seed)),
     ]
+    if train_model:
+        _needs_train_extra("quickstart")
+        stages += _training_stages(out, seed, seeds)
+    started = time.perf_counter()
     run_stages(stages)
-    console.print(f"\nQuickstart finished in {out}: sim/ (corpus), preview/, bench/ (QA items), baselines/ "
-                  "(reports), touchcot/ (training data). Model training and evaluation stages are added in later "
-                  "releases; re-running this command resumes where it stopped.")
+    minutes = (time.perf_counter() - started) / 60
+    if not train_model:
+        console.print(f"\nQuickstart data stages finished in {out} ({minutes:.1f} min).")
+        return
+    console.print(f"\nQuickstart finished in {minutes:.1f} min: {out}/report.md (results), {out}/model (trained "
+                  f"model), eval/ (per-item predictions). Ask it yourself:\n  tacreasoner ask --model {out / 'model'} "
+                  f"\"Is <tactile> real or fake?\" --video <clip.mp4>")
+
+
+def _training_stages(out: Path, seed: int, seeds: int) -> list[Stage]:
+    from tacreasoner.train.quickstart import QuickstartPaths
+
+    paths = QuickstartPaths(out)
+    seed_list = [seed + k for k in range(seeds)]
+    trained: dict[int, Path] = {}
+    timings: dict[str, object] = {}
+
+    def train_all() -> list[str]:
+        from tacreasoner.train.quickstart import quickstart_config, train_seed
+
+        lines = []
+        for s in seed_list:
+            info = train_seed(quickstart_config(paths, s))
+            trained[s] = Path(info["model"])
+            timings[f"seed{s}"] = info["seconds"]
+            took = ", ".join(f"{k} {v:.0f} s" for k, v in info["seconds"].items()) or "already trained"
+            lines.append(f"seed {s}: {took} → {info['model']}")
+        return lines
+
+    def evaluate_all() -> list[str]:
+        from tacreasoner.train.quickstart import evaluate_and_report
+
+        with StageProgress() as bars:
+            report = evaluate_and_report(paths, trained, timings,
+                                         progress=lambda name: functools.partial(bars, f"answering {name}"))
+        return [*report.summary_lines, f"report: {report.path}"]
+
+    def ask_demo() -> list[str]:
+        from tacreasoner.train.quickstart import ask_one_test_clip
+
+        return ask_one_test_clip(paths)
+
+    return [
+        Stage("pretrain-llm", f"tiny Qwen2 + BPE tokenizer on the commonsense corpus → {paths.llm}",
+              lambda: _pretrain_llm_stage(paths.llm, seed)),
+        Stage("pretrain-encoder", f"appearance ViT, masked video reconstruction → {paths.encoder}",
+              lambda: _pretrain_encoder_stage(out / "sim", paths.encoder, seed)),
+        Stage("train", f"Stage I (alignment) + Stage II (LoRA SFT on TouchCoT), seeds {seed_list} → {out / 'train'}",
+              train_all),
+        Stage("evaluate", f"held-out test objects, strict answer extraction → {paths.evaluation}", evaluate_all),
+        Stage("ask", "one held-out test clip, answered by the trained model", ask_demo),
+    ]
+
+
+def _pretrain_llm_stage(out: Path, seed: int) -> list[str]:
+    from transformers.utils import logging as hf_logging
+
+    from tacreasoner.train.pretrain_llm import pretrain_llm
+
+    if (out / "model.safetensors").is_file() and (out / "config.json").is_file():
+        return [f"already trained: {out}"]
+    hf_logging.disable_progress_bar()
+    pretrain_llm(out, seed=seed, resume=True)
+    info = json.loads((out / "pretrain.json").read_text(encoding="utf-8"))
+    return [f"{info['parameters'] / 1e6:.1f} M parameters, {info['steps_done']} steps, final loss "
+            f"{info['final_loss']}, {info['train_seconds']:.0f} s"]
+
+
+QUICKSTART_ENCODER_STEPS = 400
+"""Fewer than pretrain-encoder's 1000 to fit the quickstart's budget (benchmarks/results/quickstart.md)."""
+
+
+def _pretrain_encoder_stage(sim_dir: Path, out: Path, seed: int) -> list[str]:
+    from tacreasoner.train.pretrain_encoder import gather_pretraining_clips, pretrain_encoder
+
+    if (out / "model.safetensors").is_file():
+        return [f"already trained: {out}"]
+    clips, notes = gather_pretraining_clips([sim_dir], physiclear=True)
+    pretrain_encoder(clips, out, steps=QUICKSTART_ENCODER_STEPS, seed=seed, resume=True)
+    log = (out / "pretrain_log.jsonl").read_text(encoding="utf-8").strip().splitlines()
+    return [*notes, f"{len(clips)} clips, {QUICKSTART_ENCODER_STEPS} steps, final loss "
+                    f"{json.loads(log[-1])['loss'] if log else '–'}"]
 
 
 def _bench_stage(sim_dir: Path, bench_dir: Path, seed: int) -> list[str]:
@@ -478,6 +567,12 @@ class StageProgress:
     def close(self) -> None:
         for bar in self._bars.values():
             bar.close()
+
+    def __enter__(self) -> StageProgress:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 def _teacher_config(teacher: str | None, config: Path | None, model: str | None):
