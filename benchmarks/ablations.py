@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, publish, stamp  # noqa: E402
+from _common import header_md, publish, stamp
 
 VARIANTS: dict[str, dict] = {
     "full": {},
@@ -98,7 +98,7 @@ def main() -> None:
         if name == "full" and (paths.evaluation / "test" / "predictions" / f"seed{args.seed}.jsonl").is_file():
             preds = paths.evaluation / "test" / "predictions" / f"seed{args.seed}.jsonl"
         model, processor = load_trained(trained["model"])
-        predict_items(model, processor, items, root, preds, batch_size=48)
+        predict_items(model, processor, items, root, preds, batch_size=48, video_cache=paths.video_cache)
         report = evaluate(items, [preds], "strict", Path(config.output_dir) / "eval")
         reports[name] = report
         records[name] = [json.loads(line) for line in

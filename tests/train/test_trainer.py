@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 import torch
 from safetensors.torch import load_file
-from trainsetup import training_inputs, tiny_config
+from trainsetup import tiny_config, training_inputs
 
 from tacreasoner.train.trainer import NonFiniteLossError, train_stage
 

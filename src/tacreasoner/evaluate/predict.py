@@ -50,8 +50,11 @@ def _done_ids(path: Path) -> set[str]:
 @torch.no_grad()
 def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_root: str | os.PathLike[str],
                   out_path: str | os.PathLike[str], *, batch_size: int = 32, max_new_tokens: int = 256,
-                  progress: Callable[[int, int], None] | None = None) -> Path:
-    """Greedy answers for ``items`` appended to ``out_path`` (items already there are skipped)."""
+                  progress: Callable[[int, int], None] | None = None,
+                  video_cache: str | os.PathLike[str] | None = None) -> Path:
+    """Greedy answers for ``items`` appended to ``out_path`` (items already there are skipped).
+
+    ``video_cache``: the training run's preprocessed-video directory, reused when given."""
     from tacreasoner.train.data import VideoBank, video_key
 
     out = Path(out_path)
@@ -64,7 +67,7 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
     root = Path(video_root)
     keys = {item.id: [video_key(v, root, f"item {item.id!r}") for v in item.videos] for item in todo}
     bank = VideoBank(processor.video_config, processor.sensor_types)
-    bank.build([k for ks in keys.values() for k in ks])
+    bank.build([k for ks in keys.values() for k in ks], cache_dir=video_cache)
     base = getattr(model, "get_base_model", lambda: model)()
     device = next(base.parameters()).device
     if progress is not None:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -81,6 +82,8 @@ class DataSettings:
     """Run the frozen appearance ViT once per clip instead of every step (identical output, faster)."""
     max_items: int | None = None
     """Use only the first N training examples (trial runs)."""
+    video_cache: str | None = None
+    """Directory keeping preprocessed videos between runs (stages, seeds, ablations, evaluation); null = none."""
 
     def check(self) -> None:
         if self.stage2_data not in STAGE2_DATA:
@@ -159,6 +162,28 @@ class RuntimeSettings:
             raise ValueError(f"runtime.threads must be at least 1, got {self.threads}")
 
 
+_TYPES: dict[str, tuple[type, ...]] = {"int": (int,), "float": (int, float), "bool": (bool,), "str": (str,),
+                                       "list[str]": (list,), "dict[str, Any]": (dict,)}
+
+
+def _check_types(kind: type, raw: dict[str, Any], section: str) -> None:
+    """Every value has its field's type: a typo'd number is a string in YAML, and a bool is no number."""
+    for f in dataclasses.fields(kind):
+        if f.name not in raw:
+            continue
+        value, options = raw[f.name], [t.strip() for t in str(f.type).split("|")]
+        if value is None and "None" in options:
+            continue
+        allowed = tuple(t for o in options if o != "None" for t in _TYPES[o])
+        ok = isinstance(value, allowed) and (bool in allowed or not isinstance(value, bool))
+        if ok and isinstance(value, list):
+            ok = all(isinstance(v, str) for v in value)
+        if not ok:
+            expected = " or ".join("a list of strings" if o == "list[str]" else "a mapping" if o.startswith("dict")
+                                   else o for o in options if o != "None")
+            raise ValueError(f"{section}.{f.name} must be {expected}, got {value!r}")
+
+
 def _default_stage1() -> StageSettings:
     return StageSettings(steps=150, lr=1e-3, batch_size=16)
 
@@ -208,10 +233,14 @@ class TrainConfig:
         def where(*path: str | int) -> str:
             return f"{source}:{line_of(lines, tuple(path))}" if lines else source
 
+        def first_unknown(kind: type, raw: dict[str, Any]) -> tuple[str, ...]:
+            unknown = sorted(map(str, set(raw) - {f.name for f in dataclasses.fields(kind)}))
+            return tuple(unknown[:1])
+
         try:
             reject_unknown_fields(cls, data, "unknown top-level keys", known="declared")
         except ValueError as exc:
-            raise ValueError(f"{where()}: {exc}") from None
+            raise ValueError(f"{where(*first_unknown(cls, data))}: {exc}") from None
         sections = {"model": ModelSettings, "data": DataSettings, "stage1": StageSettings, "stage2": StageSettings,
                     "runtime": RuntimeSettings}
         built: dict[str, Any] = {}
@@ -224,10 +253,17 @@ class TrainConfig:
                 raise ValueError(f"{where(name)}: {name} must be a mapping of settings, got {type(raw).__name__}")
             try:
                 reject_unknown_fields(kind, raw, f"{name}: unknown keys", known="declared")
+            except ValueError as exc:
+                raise ValueError(f"{where(name, *first_unknown(kind, raw))}: {exc}") from None
+            if name == "runtime" and raw.get("mixed_precision") is False:
+                raw = {**raw, "mixed_precision": "no"}  # YAML 1.1 (and --set runtime.mixed_precision=no) read false
+            try:
+                _check_types(kind, raw, name)
                 base = dataclasses.asdict(getattr(defaults, name))
                 built[name] = kind(**{**base, **raw})
             except (TypeError, ValueError) as exc:
-                raise ValueError(f"{where(name)}: {exc}") from None
+                key = re.match(rf"{name}\.(\w+)", str(exc))
+                raise ValueError(f"{where(name, *key.groups()) if key else where(name)}: {exc}") from None
         if data.get("lora") is not None:
             try:
                 built["lora"] = LoraSettings.from_dict(data["lora"])
@@ -242,8 +278,8 @@ class TrainConfig:
         try:
             config.check()
         except ValueError as exc:
-            section = str(exc).split(".", 1)[0].split(":", 1)[0]
-            raise ValueError(f"{where(section)}: {exc}") from None
+            key = re.match(r"(\w+)(?:\.(\w+))?", str(exc))
+            raise ValueError(f"{where(*(k for k in key.groups() if k)) if key else where()}: {exc}") from None
         return config
 
 

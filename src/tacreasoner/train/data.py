@@ -14,7 +14,9 @@ examples an uninterrupted single-process run would.
 
 from __future__ import annotations
 
+import hashlib
 import json
+import os
 import random
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -162,22 +164,16 @@ class VideoBank:
         self.sensors: torch.Tensor | None = None
         self.appearance: torch.Tensor | None = None
 
-    def build(self, keys: Sequence[VideoKey], progress: Callable[[int, int], None] | None = None) -> None:
-        from tacreasoner.data.cache import load_frames
-        from tacreasoner.data.sampling import background_frame
-        from tacreasoner.model.video_processing import preprocess_video
-
-        unique = list(dict.fromkeys(keys))
+    def build(self, keys: Sequence[VideoKey], progress: Callable[[int, int], None] | None = None,
+              cache_dir: str | Path | None = None) -> None:
+        """Preprocess every distinct video once; ``cache_dir`` keeps the results on disk for later runs
+        (other stages, seeds, ablations and evaluation), keyed by file, size, mtime, segment and settings."""
+        # sorted by file: the segments of one clip follow each other, so the clip is decoded once
+        unique = sorted(dict.fromkeys(keys), key=lambda k: (k[0], k[1] or 0, k[2] or 0))
         arrays, sensors = [], []
-        for n, (path, start, end) in enumerate(unique, 1):
-            try:
-                frames = load_frames(path)
-            except (OSError, ValueError) as exc:
-                raise ValueError(f"{path}: cannot decode training video ({exc})") from None
-            segment = frames[start:end] if (start is not None or end is not None) else frames
-            if len(segment) == 0:
-                raise ValueError(f"{path}: segment [{start}, {end}) holds no frames")
-            arrays.append(preprocess_video(segment, self.video_config, background=background_frame(frames)))
+        for n, key in enumerate(unique, 1):
+            arrays.append(self._pixels(key, Path(cache_dir) if cache_dir is not None else None))
+            path = key[0]
             sensor = Path(path).parent.name.split("+")[0].split("@")[0].lower()
             sensors.append(self.sensor_types.index(sensor) if sensor in self.sensor_types else 0)
             if progress is not None:
@@ -185,6 +181,39 @@ class VideoBank:
         self.index = {k: i for i, k in enumerate(unique)}
         self.pixels = torch.from_numpy(np.stack(arrays)) if arrays else None
         self.sensors = torch.tensor(sensors, dtype=torch.long)
+
+    def _pixels(self, key: VideoKey, cache_dir: Path | None) -> np.ndarray:
+        from tacreasoner.data.cache import load_frames
+        from tacreasoner.data.sampling import background_frame
+        from tacreasoner.model.video_processing import preprocess_video
+
+        path, start, end = key
+        cached = None
+        if cache_dir is not None:
+            stat = Path(path).stat()
+            name = json.dumps([str(Path(path).resolve()), stat.st_size, stat.st_mtime_ns, start, end,
+                               self.video_config.to_dict()], sort_keys=True)
+            cached = cache_dir / f"{hashlib.sha256(name.encode()).hexdigest()[:24]}.npy"
+            if cached.is_file():
+                try:
+                    return np.load(cached)
+                except (OSError, ValueError):
+                    pass  # a torn write: recompute below
+        try:
+            frames = load_frames(path)
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"{path}: cannot decode training video ({exc})") from None
+        segment = frames[start:end] if (start is not None or end is not None) else frames
+        if len(segment) == 0:
+            raise ValueError(f"{path}: segment [{start}, {end}) holds no frames")
+        array = preprocess_video(segment, self.video_config, background=background_frame(frames))
+        if cached is not None:
+            cache_dir.mkdir(parents=True, exist_ok=True)
+            tmp = cached.with_suffix(f".{os.getpid()}.tmp")
+            with tmp.open("wb") as f:
+                np.save(f, array)
+            os.replace(tmp, cached)
+        return array
 
     @torch.no_grad()
     def cache_appearance(self, tactile_encoder: Any, batch_size: int = 64) -> None:

@@ -62,13 +62,18 @@ class QuickstartPaths:
     def model(self) -> Path:
         return self.root / "model"
 
+    @property
+    def video_cache(self) -> Path:
+        return self.root / "video_cache"
+
 
 def quickstart_config(paths: QuickstartPaths, seed: int, overrides: dict[str, dict[str, Any]] | None = None,
                       output_dir: Path | None = None) -> TrainConfig:
     """The tiny-CPU config pointed at a quickstart run directory (``overrides`` per section: ablations)."""
     data: dict[str, Any] = {"output_dir": str(output_dir or paths.train(seed)), "seed": seed,
                             "model": {"llm": str(paths.llm), "appearance": str(paths.encoder)},
-                            "data": {"bench": str(paths.bench), "touchcot": str(paths.touchcot)}}
+                            "data": {"bench": str(paths.bench), "touchcot": str(paths.touchcot),
+                                     "video_cache": str(paths.video_cache)}}
     for section, values in {**TINY_SETTINGS}.items():
         data[section] = {**data.get(section, {}), **values}
     for section, values in (overrides or {}).items():
@@ -103,7 +108,7 @@ class SeedEvaluation:
 
 
 def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tuple[str, ...] = ("test",), *,
-                   batch_size: int = 48, max_new_tokens: int = 256,
+                   batch_size: int = 48, max_new_tokens: int = 256, video_cache: Path | None = None,
                    progress: Callable[[str], Callable[[int, int], None]] | None = None) -> dict[str, Any]:
     """Answer each split with each seed's model; one report per split (mean ± std over seeds)."""
     from tacreasoner.evaluate.predict import load_trained, predict_items
@@ -120,7 +125,7 @@ def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tupl
             if not _complete(path, len(items)):
                 model, processor = load_trained(model_dir)
                 predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
-                              max_new_tokens=max_new_tokens,
+                              max_new_tokens=max_new_tokens, video_cache=video_cache,
                               progress=None if progress is None else progress(f"{split}, seed {seed}"))
             files.append(path)
         reports[split] = evaluate(items, files, "strict", out / split)
@@ -185,7 +190,8 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
 
     splits = ("test", "test_heldout_sensor") if (paths.bench / "test_heldout_sensor.jsonl").is_file() else ("test",)
     started = time.perf_counter()
-    reports = evaluate_seeds(models, paths.bench, paths.evaluation, splits, progress=progress)
+    reports = evaluate_seeds(models, paths.bench, paths.evaluation, splits, progress=progress,
+                             video_cache=paths.video_cache)
     eval_seconds = round(time.perf_counter() - started, 1)
     baselines = {k: _baseline_accuracy(paths.root, k) for k in ("random", "majority")}
     baselines = {k: v for k, v in baselines.items() if v}

@@ -21,6 +21,7 @@ Stage II: merged) and, for Stage II, ``adapter/`` (LoRA + projector, PEFT format
 from __future__ import annotations
 
 import json
+import os
 import time
 from collections.abc import Callable
 from contextlib import nullcontext
@@ -79,6 +80,7 @@ def _looks_local(name: str) -> bool:
 
 def check_inputs(config: TrainConfig, stage: int) -> None:
     """Every file a stage needs exists, before a model is loaded (a typo should cost seconds, not a load)."""
+    config.stage(stage)
     config.check()
     bench = Path(config.data.bench)
     if not (bench / "bench.json").is_file():
@@ -215,8 +217,15 @@ def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_a
         except ImportError:
             raise ValueError('runtime.log_with: tensorboard needs the tensorboard package (pip install -e ".[train]")'
                              ', or set runtime.log_with: none') from None
-    accelerator = Accelerator(mixed_precision=_mixed_precision(config.runtime.mixed_precision), log_with=log_with,
+    # Under torchrun on a machine without CUDA, Accelerate sets up (gloo) DDP only when told it runs on the CPU;
+    # otherwise every process would train alone and all of them would write the same output_dir.
+    world = int(os.environ.get("WORLD_SIZE", "1"))
+    accelerator = Accelerator(cpu=world > 1 and not torch.cuda.is_available(),
+                              mixed_precision=_mixed_precision(config.runtime.mixed_precision), log_with=log_with,
                               project_dir=str(out / "logs"))
+    if world > 1 and accelerator.num_processes == 1:
+        raise RuntimeError(f"WORLD_SIZE is {world} but Accelerate set up no distributed training "
+                           f"({accelerator.distributed_type}): the processes would each train alone")
     main = accelerator.is_main_process
     bar = _Bar(config.runtime.progress and main, f"stage {stage}")
     try:
@@ -230,11 +239,14 @@ def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_a
 def _run(config: TrainConfig, stage: int, accelerator: Any, bar: _Bar, latest: Path | None, stop_after: int | None,
          on_log: Callable[[dict[str, Any]], None] | None,
          loss_hook: Callable[[int, int, torch.Tensor], torch.Tensor] | None) -> StageResult:
+    from transformers.utils import logging as hf_logging
+
     from tacreasoner.model.stages import configure_stage
 
     settings = config.stage(stage)
     out = config.stage_dir(stage)
     started = time.perf_counter()
+    hf_logging.disable_progress_bar()
     seed_everything(config.seed)
     model, processor = _build(config, stage)
     if config.model.gradient_checkpointing:
@@ -249,8 +261,9 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: _Bar, latest: P
     if not tokenized:
         raise ValueError(f"every example is longer than data.max_length={config.data.max_length} tokens")
     bank = VideoBank(processor.video_config, processor.sensor_types)
-    bar.stage("preprocessing videos", 1)
-    bank.build([k for e in tokenized for k in e.videos], progress=lambda d, t: bar.update(d, info=f"{d}/{t}"))
+    bar.stage("preprocessing videos", len({k for e in tokenized for k in e.videos}))
+    bank.build([k for e in tokenized for k in e.videos], progress=lambda d, t: bar.update(d, info=f"{d}/{t}"),
+               cache_dir=config.data.video_cache)
     if config.data.cache_appearance:
         bank.cache_appearance(base.tactile_encoder)
 

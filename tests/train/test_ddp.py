@@ -1,0 +1,93 @@
+"""Two-process CPU DDP (gloo, via torch.distributed.run): the ranks stay identical, and 2 processes ×
+batch 2 take the same optimizer steps as 1 process × batch 4, since the loss is normalised by the
+global number of answer tokens."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+from ddp_worker import capture_trainable_weights
+from safetensors.torch import load_file
+from trainsetup import tiny_config, training_inputs
+
+from tacreasoner.train.trainer import train_stage
+
+WORKER = Path(__file__).with_name("ddp_worker.py")
+TIMEOUT_S = 300
+STEPS = 3
+
+
+@pytest.fixture(scope="module")
+def inputs(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    return training_inputs(small_sim_dataset, tmp_path_factory.mktemp("train_inputs"))
+
+
+def _config(inputs: dict[str, Path], out: Path, batch_size: int):
+    # Stage II straight from the LLM; no dropout anywhere, so the runs differ only in how the batch is split
+    return tiny_config(inputs, out, stage1={"skip": True}, stage2={"steps": STEPS, "batch_size": batch_size},
+                       lora={"r": 8, "alpha": 16, "dropout": 0.0},
+                       runtime={"threads": 1, "log_with": "none", "progress": False, "mixed_precision": "no"})
+
+
+def _free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _launch_two_processes(config_json: Path, weights_dir: Path) -> None:
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "TOKENIZERS_PARALLELISM": "false"}
+    cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "--master_addr", "127.0.0.1",
+           "--master_port", str(_free_port()), str(WORKER), str(config_json), str(weights_dir)]
+    try:
+        done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
+    except subprocess.TimeoutExpired as exc:
+        stderr = exc.stderr.decode(errors="replace") if isinstance(exc.stderr, bytes) else exc.stderr or ""
+        pytest.fail(f"torch.distributed.run did not finish in {TIMEOUT_S} s; stderr tail:\n{stderr[-4000:]}")
+    assert done.returncode == 0, f"torch.distributed.run exited {done.returncode}; stderr tail:\n{done.stderr[-4000:]}"
+
+
+def _losses(run: Path) -> list[float]:
+    return [json.loads(line)["loss"] for line in (run / "stage2" / "train_log.jsonl").read_text().splitlines()]
+
+
+def test_two_processes_stay_in_sync_and_match_one_process_with_the_same_global_batch(inputs, tmp_path) -> None:
+    ddp_run, single_run = tmp_path / "ddp", tmp_path / "single"
+    ddp_run.mkdir()
+    config_json = ddp_run / "config.json"
+    config_json.write_text(json.dumps(_config(inputs, ddp_run, batch_size=2).to_dict()))
+    _launch_two_processes(config_json, tmp_path / "weights")
+
+    run_info = json.loads((ddp_run / "stage2" / "run.json").read_text())
+    assert run_info["processes"] == 2 and run_info["global_batch"] == 4, (
+        f"the trainer ran {run_info['processes']} process(es) under torch.distributed.run --nproc_per_node 2: "
+        f"each process trained alone (Accelerate sets up gloo DDP on CPU only when told it runs on CPU)")
+    assert (ddp_run / "stage2" / "adapter" / "adapter_config.json").is_file()
+    rank0 = load_file(str(tmp_path / "weights" / "rank0.safetensors"))
+    rank1 = load_file(str(tmp_path / "weights" / "rank1.safetensors"))
+    infos = [json.loads((tmp_path / "weights" / f"rank{r}.json").read_text()) for r in (0, 1)]
+    assert [i["world_size"] for i in infos] == [2, 2] and infos[0]["final_loss"] == infos[1]["final_loss"]
+
+    # (a) DDP keeps the ranks identical: same gradients (all-reduced), same updates
+    assert rank0.keys() == rank1.keys()
+    assert any("lora_A" in n for n in rank0) and any("projector" in n for n in rank0)
+    assert any(rank0[n].abs().sum() > 0 for n in rank0 if "lora_B" in n), "LoRA B is still zero: nothing trained"
+    for name in rank0:
+        assert torch.equal(rank0[name], rank1[name]), f"{name} differs between the ranks"
+
+    # (b) 2 processes × batch 2 = 1 process × batch 4 (same examples per step, same token normalisation)
+    with capture_trainable_weights() as single:
+        result = train_stage(_config(inputs, single_run, batch_size=4), 2)
+    assert result.steps == STEPS
+    assert single.keys() == rank0.keys()
+    for name in single:
+        torch.testing.assert_close(rank0[name], single[name], rtol=1e-4, atol=1e-5, msg=name)
+    assert _losses(ddp_run) == pytest.approx(_losses(single_run), abs=1e-4)
+    assert infos[0]["final_loss"] == pytest.approx(result.final_loss, abs=1e-5)
