@@ -54,11 +54,14 @@ def test_stage_one_trains_temporal_fusion_projector_and_new_token_rows_only() ->
     assert embedding in no_decay_parameter_names(model)
 
 
-def test_stage_two_trains_projector_and_lora_only() -> None:
+def test_stage_two_trains_projector_lora_and_new_token_rows_only() -> None:
     model = _model()
     peft_model = configure_stage(model, 2, LoraSettings(r=4, alpha=8))
     names = trainable_parameter_names(peft_model)
-    assert names and all("lora_" in n or "projector" in n for n in names)
+    assert names and all("lora_" in n or "projector" in n or "trainable_tokens_delta" in n for n in names)
+    assert any("embed_tokens.token_adapter.trainable_tokens_delta" in n for n in names)
+    # the LM's output layer is tied to its input embeddings: the new rows must reach it as well
+    assert type(peft_model.base_model.model.language_model.lm_head).__name__ == "TrainableTokensWrapper"
     assert {"q_proj", "k_proj", "v_proj", "o_proj"} <= {n.split(".")[-4] for n in names if "lora_A" in n}
     # LoRA B starts at zero, so give it a value to let gradients reach A as well
     for n, p in peft_model.named_parameters():

@@ -13,7 +13,9 @@ from tacreasoner.model.modeling import TacReasonerForCausalLM
 from tacreasoner.model.processing import PROCESSOR_CONFIG_NAME, TacReasonerProcessor
 from tacreasoner.model.tokenizer import TACTILE_PAD, prepare_tokenizer
 
-__all__ = ["build_model", "load_model", "save_model"]
+__all__ = ["UNTRAINED_TOKENS_FILE", "build_model", "load_model", "save_model", "untrained_token_ids"]
+
+UNTRAINED_TOKENS_FILE = "untrained_tokens.json"
 
 
 def build_model(llm: str | os.PathLike[str] | PreTrainedModel, *, tokenizer: PreTrainedTokenizerBase | None = None,
@@ -33,12 +35,34 @@ def build_model(llm: str | os.PathLike[str] | PreTrainedModel, *, tokenizer: Pre
         tokenizer = AutoTokenizer.from_pretrained(llm)
     before = len(tokenizer)
     added = prepare_tokenizer(tokenizer)
+    new_ids = sorted({*range(before, before + added), *untrained_token_ids(llm)})
     model = TacReasonerForCausalLM.from_llm(
         llm, tactile_token_id=int(tokenizer.convert_tokens_to_ids(TACTILE_PAD)), vocab_size=len(tokenizer),
-        new_token_ids=list(range(before, before + added)), encoder=encoder, appearance=appearance, **llm_kwargs)
+        new_token_ids=new_ids, encoder=encoder, appearance=appearance, **llm_kwargs)
     processor = TacReasonerProcessor.for_encoder(tokenizer, model.encoder_config, video=video or {},
                                                  system_prompt=system_prompt)
     return model, processor
+
+
+def untrained_token_ids(llm: str | os.PathLike[str] | PreTrainedModel) -> list[int]:
+    """Token ids the LLM was never trained on, from ``untrained_tokens.json`` in its directory (if any).
+
+    ``pretrain-llm`` writes the file: the tiny LLM's BPE vocabulary has entries that never occur in its
+    corpus, whose embedding rows are untrained. Like tokens added here, they are "new" to the LLM, so the
+    tactile stages train their rows. A real checkpoint has no such file (every token was trained).
+    """
+    if isinstance(llm, PreTrainedModel):
+        return []
+    path = Path(llm) / UNTRAINED_TOKENS_FILE
+    if not path.is_file():
+        return []
+    from tacreasoner.jsonl import read_json_object
+
+    data = read_json_object(path, "a list of untrained token ids written by pretrain-llm")
+    ids = data.get("ids")
+    if not isinstance(ids, list) or not all(isinstance(i, int) and i >= 0 for i in ids):
+        raise ValueError(f"{path}: 'ids' must be a list of non-negative token ids")
+    return ids
 
 
 def save_model(model: Any, processor: TacReasonerProcessor, directory: str | os.PathLike[str]) -> Path:

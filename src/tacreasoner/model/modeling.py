@@ -52,6 +52,9 @@ class TacReasonerPreTrainedModel(PreTrainedModel):
     _supports_sdpa = True
     _supports_flash_attn = True
     _no_split_modules: ClassVar[list[str]] = ["DynamicTactileEncoder"]
+    # No ties of its own; a dict (not None) makes PEFT collect the language model's (lm_head ↔ embed_tokens), so
+    # trainable token rows in Stage II reach the tied output layer too.
+    _tied_weights_keys: ClassVar[dict[str, str]] = {}
 
     def _init_weights(self, module: nn.Module) -> None:
         if getattr(module, "zero_init", False):

@@ -2,7 +2,8 @@
 
     Stage I  (alignment): temporal branch, fusion, sensor embedding, projector, and the embedding rows of
                           tokens added to the LLM's vocabulary. LLM and appearance ViT frozen.
-    Stage II (SFT):       projector + LoRA on the LLM's attention projections. Whole tactile encoder frozen.
+    Stage II (SFT):       projector + LoRA on the LLM's attention projections (+ the rows of the added tokens,
+                          as PEFT trainable tokens). Whole tactile encoder frozen.
 
 The appearance branch is never trained here (it is pre-trained by ``pretrain-encoder``).
 """
@@ -51,13 +52,17 @@ class LoraSettings:
         reject_unknown_fields(cls, data, "lora: unknown keys", known="declared")
         return cls(**data)
 
-    def peft_config(self) -> Any:
+    def peft_config(self, new_token_ids: list[int] | None = None) -> Any:
+        """LoRA on the LM's projections + the projector; ``new_token_ids``' embedding rows train too (PEFT
+        trainable tokens, saved with the adapter): rows the LLM never learnt would otherwise stay frozen."""
         from peft import LoraConfig
 
         names = "|".join(self.target_modules)
+        tokens = {"embed_tokens": sorted(new_token_ids)} if new_token_ids else None
         # only the language model's projections: the tactile encoder has none of these names, but be explicit
         return LoraConfig(r=self.r, lora_alpha=self.alpha, lora_dropout=self.dropout,
-                          target_modules=rf".*language_model\..*\.({names})", modules_to_save=["projector"])
+                          target_modules=rf".*language_model\..*\.({names})", modules_to_save=["projector"],
+                          trainable_token_indices=tokens)
 
 
 def _freeze(module: nn.Module) -> None:
@@ -109,8 +114,8 @@ def configure_stage(model: TacReasonerForCausalLM, stage: int, lora: LoraSetting
         return model
     from peft import get_peft_model
 
-    peft_model = get_peft_model(model, (lora or LoraSettings()).peft_config())
-    return peft_model
+    new_ids = list(model.config.new_token_ids or [])
+    return get_peft_model(model, (lora or LoraSettings()).peft_config(new_ids))
 
 
 def no_decay_parameter_names(model: nn.Module) -> set[str]:

@@ -203,6 +203,19 @@ def _check_settings(out: Path, settings: PretrainSettings, resume: bool) -> None
                          f"new output directory")
 
 
+def write_untrained_tokens(out: Path, examples: Sequence[_Example], vocab_size: int) -> Path:
+    """Record the vocabulary entries that never occur in the corpus (see ``UNTRAINED_TOKENS_FILE``)."""
+    from tacreasoner.model.build import UNTRAINED_TOKENS_FILE
+
+    seen = {t for e in examples for t in e.ids}
+    ids = [i for i in range(vocab_size) if i not in seen]
+    path = out / UNTRAINED_TOKENS_FILE
+    write_json(path, {"ids": ids, "why": "tokens of the BPE vocabulary (learnt from the corpus and the package's "
+                                         "wording files) that never occur in the pre-training corpus: their "
+                                         "embedding rows are untrained, so the tactile stages train them"})
+    return path
+
+
 def _unique_weights(model: torch.nn.Module) -> dict[str, torch.Tensor]:
     """The state dict without tied duplicates (safetensors refuses tensors that share memory)."""
     seen: set[int] = set()
@@ -386,6 +399,7 @@ def _train(out: Path, settings: PretrainSettings, *, resume: bool, progress: boo
     model.generation_config.bos_token_id = None
     model.save_pretrained(out)
     tokenizer.save_pretrained(out)
+    write_untrained_tokens(out, examples, len(tokenizer))
     info = json.loads((out / SETTINGS_FILE).read_text(encoding="utf-8"))
     info.update({"steps_done": step, "tokens_seen": tokens_seen,
                  "final_loss": None if last_loss is None else round(last_loss, 4),

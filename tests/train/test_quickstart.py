@@ -1,0 +1,74 @@
+"""The quickstart's training half: its settings equal configs/tiny-cpu.yaml; evaluation and report on a tiny run."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from trainsetup import tiny_config, training_inputs
+
+from tacreasoner.train.config import load_train_config
+from tacreasoner.train.quickstart import QuickstartPaths, evaluate_and_report, quickstart_config, results_table
+from tacreasoner.train.trainer import train_stage
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_quickstart_settings_are_the_tiny_cpu_yaml() -> None:
+    yaml_config = load_train_config(ROOT / "configs" / "tiny-cpu.yaml").to_dict()
+    quick = quickstart_config(QuickstartPaths(Path("runs/quickstart")), 0).to_dict()
+    for section in ("stage1", "stage2", "lora"):
+        assert quick[section] == yaml_config[section], section
+    for key in ("max_length", "stage2_data", "group_by_length", "cache_appearance"):
+        assert quick["data"][key] == yaml_config["data"][key], key
+    assert quick["model"]["encoder"] == yaml_config["model"]["encoder"] or not quick["model"]["encoder"]
+    assert quick["runtime"] == {**yaml_config["runtime"], "progress": quick["runtime"]["progress"]}
+
+
+@pytest.fixture(scope="module")
+def trained_run(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
+    inputs = training_inputs(small_sim_dataset, tmp_path_factory.mktemp("train_inputs_qs"))
+    root = tmp_path_factory.mktemp("quick")
+    shutil.copytree(inputs["bench"], root / "bench")
+    config = tiny_config(inputs, root / "train" / "seed0", data={"bench": str(root / "bench")},
+                         stage1={"skip": True})
+    train_stage(config, 2)
+    return root, inputs
+
+
+def test_evaluate_and_report_writes_tables_verdicts_and_publishes_the_model(trained_run) -> None:
+    root, _ = trained_run
+    paths = QuickstartPaths(root)
+    report = evaluate_and_report(paths, {0: paths.train(0) / "stage2" / "model"}, {"seed0": {"stage2": 1.0}})
+    text = report.path.read_text()
+    assert "Held-out test objects (`test`)" in text and "held-out sensor style" in text
+    assert "| **Average** |" in text and "Beats chance" in text
+    data = json.loads((root / "report.json").read_text())
+    assert set(data["splits"]) == {"test", "test_heldout_sensor"}
+    tasks = {t["task"] for t in data["splits"]["test"]["tasks"]}
+    assert set(report.beats_chance["test"]) == tasks
+    assert (paths.model / "config.json").is_file(), "the seed-0 model is published for `tacreasoner ask`"
+    lines = (paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines()
+    again = evaluate_and_report(paths, {0: paths.train(0) / "stage2" / "model"}, {})
+    assert (paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines() == lines, \
+        "a finished prediction file is reused, not regenerated"
+    assert again.summary_lines == report.summary_lines
+
+
+def test_results_table_says_which_tasks_beat_chance(trained_run) -> None:
+    from tacreasoner.evaluate.report import evaluate
+    from tacreasoner.tasks.bench import load_bench
+
+    root, _ = trained_run
+    _, items = load_bench(root / "bench", "test")
+    perfect = root / "perfect.jsonl"
+    perfect.write_text("".join(json.dumps({"id": i.id, "prediction": f"<answer>{i.answer}</answer>"}) + "\n"
+                               for i in items))
+    wrong = root / "wrong.jsonl"
+    wrong.write_text("".join(json.dumps({"id": i.id, "prediction": "no idea"}) + "\n" for i in items))
+    rows, verdict = results_table(evaluate(items, [perfect], "strict", root / "perfect"), {})
+    assert all(verdict.values()) and all(row.endswith("| yes |") for row in rows[2:-1])
+    _, verdict = results_table(evaluate(items, [wrong], "strict", root / "wrong"), {"random": {}})
+    assert not any(verdict.values())
