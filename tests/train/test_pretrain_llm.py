@@ -121,3 +121,24 @@ def test_cli_defaults_match_the_library_and_a_short_run_works(tmp_path: Path) ->
     assert "model + tokenizer:" in result.output and (out / "model.safetensors").is_file()
     again = CliRunner().invoke(app, ["pretrain-llm", "--out", str(out), "--steps", "2", "--batch-size", "2"])
     assert again.exit_code == 2 and "already holds a pre-training run" in again.output
+
+
+def test_untrained_vocabulary_is_recorded_and_becomes_new_token_rows(finished: Path) -> None:
+    """Entries of the BPE vocabulary the corpus never uses have untrained rows: build_model marks them new."""
+    from transformers import AutoTokenizer
+
+    from tacreasoner.model.build import UNTRAINED_TOKENS_FILE, build_model, untrained_token_ids
+
+    tokenizer = AutoTokenizer.from_pretrained(finished)
+    ids = json.loads((finished / UNTRAINED_TOKENS_FILE).read_text())["ids"]
+    assert ids == untrained_token_ids(finished) and 0 < len(ids) < len(tokenizer)
+    corpus_ids = set(tokenizer("a soft sponge is highly deformable", add_special_tokens=False)["input_ids"])
+    assert not corpus_ids & set(ids), "words the corpus uses must not be listed as untrained"
+    model, _ = build_model(finished)
+    assert set(ids) <= set(model.config.new_token_ids)
+    (finished / UNTRAINED_TOKENS_FILE).write_text('{"ids": [-1]}')
+    try:
+        with pytest.raises(ValueError, match="non-negative token ids"):
+            untrained_token_ids(finished)
+    finally:
+        (finished / UNTRAINED_TOKENS_FILE).write_text(json.dumps({"ids": ids}))

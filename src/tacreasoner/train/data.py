@@ -1,8 +1,9 @@
 """Training data for Stages I and II: examples, their videos (preprocessed once), and a resumable batch plan.
 
 - Stage I (alignment) learns to *describe* a clip: the benchmark's train split items that are about one
-  clip (TFA attributes and combined, real vs fake, contact state), answered in plain words, like
-  VTV-150K's raw instruction data.
+  clip (TFA attributes and combined, real vs fake, contact state), like VTV-150K's raw instruction data,
+  written as ``<answer>…</answer>`` (the LLM is frozen in Stage I: it already knows the answer format, so
+  the tactile side only has to supply the content; plain text put the loss on format it cannot learn).
 - Stage II (SFT) learns to reason: TouchCoT records (``<think>…</think><answer>…</answer>``), or, for the
   paper's "w/o CoT" ablation, the same train items answered with ``<answer>gold</answer>`` only.
 
@@ -98,15 +99,19 @@ def _touchcot(path: Path, root: Path) -> list[TrainExample]:
     return out
 
 
+def _answer_only(item: QAItem) -> str:
+    return f"<answer>{item.answer}</answer>"
+
+
 def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None = None, stage2_data: str = "touchcot",
                   tasks: Sequence[str] | None = None, max_items: int | None = None) -> list[TrainExample]:
     """The examples of ``stage`` (see the module doc); TSA is never among them."""
     bench = Path(bench)
     root, items = _bench_items(bench)
     if stage == 1:
-        examples = _from_items([i for i in items if i.task in STAGE1_TASKS], root, lambda i: i.answer)
+        examples = _from_items([i for i in items if i.task in STAGE1_TASKS], root, _answer_only)
     elif stage2_data == "plain":
-        examples = _from_items([i for i in items if i.task != "TSA"], root, lambda i: f"<answer>{i.answer}</answer>")
+        examples = _from_items([i for i in items if i.task != "TSA"], root, _answer_only)
     else:
         if touchcot is None:
             raise ValueError("data.touchcot: Stage II on TouchCoT needs the training JSONL from build-cot")
