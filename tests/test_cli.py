@@ -149,18 +149,19 @@ def test_sim_preview_missing_dataset_or_clip(dataset: Path, tmp_path: Path) -> N
 
 def test_quickstart_runs_named_stages(tmp_path: Path) -> None:
     out = tmp_path / "qs"
-    result = invoke("quickstart", "--out", out, "--objects", "2", "--repeats", "1", "--workers", "1")
+    result = invoke("quickstart", "--out", out, "--objects", "2", "--repeats", "1", "--workers", "1", "--no-train")
     assert result.exit_code == 0, result.output
     for n, stage in enumerate(("simulate", "preview", "benchmark", "baselines", "touchcot"), 1):
         assert f"[{n}/5] {stage}" in result.stdout
     assert len((out / "sim" / "manifest.jsonl").read_text().splitlines()) == 2
     assert_pngs([out / "preview" / f"mini_apple_{kind}_0{suffix}.png"
                  for kind in ("real", "fake") for suffix in ("", "_signals")])
-    assert "later releases" in result.stdout
+    assert "data stages finished" in result.stdout and not (out / "train").exists()
 
 
 def test_quickstart_rejects_bad_counts(tmp_path: Path) -> None:
     assert_one_line_error(invoke("quickstart", "--out", tmp_path / "qs", "--repeats", "-1"), "--repeats")
+    assert_one_line_error(invoke("quickstart", "--out", tmp_path / "qs", "--seeds", "0"), "--seeds")
 
 
 # ------------------------------------------------------------------------------------------ app

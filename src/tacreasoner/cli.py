@@ -919,3 +919,4 @@ def _root(
 
 def main() -> None:
     app(prog_name="tacreasoner")
+

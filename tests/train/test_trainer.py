@@ -112,3 +112,46 @@ def test_stage_two_without_stage_one_output_is_refused_before_loading(inputs, tm
     config = tiny_config(inputs, tmp_path)
     with pytest.raises(FileNotFoundError, match="no Stage I model"):
         train_stage(config, 2)
+
+
+def test_sigkilled_cli_run_resumes_to_the_uninterrupted_result(inputs, tmp_path) -> None:
+    """A real `kill -9` of `tacreasoner train` mid-run, then `--resume`: the same adapter as a straight run."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import yaml
+
+    def config_file(out: Path) -> Path:
+        config = tiny_config(inputs, out, stage1={"skip": True}, stage2={"steps": 8},
+                             runtime={"checkpoint_every": 1, "keep_checkpoints": 8})
+        path = out.with_suffix(".yaml")
+        path.write_text(yaml.safe_dump(config.to_dict()))
+        return path
+
+    def train(path: Path, *extra: str) -> subprocess.Popen:
+        return subprocess.Popen([sys.executable, "-m", "tacreasoner", "train", "--stage", "2", "--config",
+                                 str(path), *extra], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                env={**os.environ, "OMP_NUM_THREADS": "1"})
+
+    straight = train(config_file(tmp_path / "straight"))
+    killed_cfg = config_file(tmp_path / "killed")
+    victim = train(killed_cfg)
+    ckpts = tmp_path / "killed" / "stage2" / "checkpoints"
+    deadline = time.monotonic() + 240
+    while not (ckpts.is_dir() and any(p.name == "step-00000003" for p in ckpts.iterdir())):
+        assert victim.poll() is None, victim.stdout.read().decode()[-2000:]
+        assert time.monotonic() < deadline, "no checkpoint appeared"
+        time.sleep(0.05)
+    victim.send_signal(signal.SIGKILL)
+    victim.wait()
+    assert not (tmp_path / "killed" / "stage2" / "adapter").exists(), "killed before the end"
+    resumed = train(killed_cfg, "--resume")
+    for proc in (straight, resumed):
+        out = proc.communicate(timeout=300)[0].decode()
+        assert proc.returncode == 0, out[-2000:]
+    a, b = _adapter_weights(tmp_path / "straight"), _adapter_weights(tmp_path / "killed")
+    for name in a:
+        torch.testing.assert_close(a[name], b[name], rtol=0, atol=1e-6, msg=name)
