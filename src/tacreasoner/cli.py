@@ -919,4 +919,3 @@ def _root(
 
 def main() -> None:
     app(prog_name="tacreasoner")
-
