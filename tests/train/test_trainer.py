@@ -155,3 +155,18 @@ def test_sigkilled_cli_run_resumes_to_the_uninterrupted_result(inputs, tmp_path)
     a, b = _adapter_weights(tmp_path / "straight"), _adapter_weights(tmp_path / "killed")
     for name in a:
         torch.testing.assert_close(a[name], b[name], rtol=0, atol=1e-6, msg=name)
+
+
+def test_deepspeed_gets_the_micro_batch_and_refuses_accumulation() -> None:
+    from types import SimpleNamespace
+
+    from tacreasoner.train.config import StageSettings
+    from tacreasoner.train.trainer import _configure_deepspeed
+
+    plugin = SimpleNamespace(deepspeed_config={"train_micro_batch_size_per_gpu": "auto"})
+    accelerator = SimpleNamespace(state=SimpleNamespace(deepspeed_plugin=plugin))
+    _configure_deepspeed(accelerator, StageSettings(batch_size=6))
+    assert plugin.deepspeed_config == {"train_micro_batch_size_per_gpu": 6, "gradient_accumulation_steps": 1}
+    with pytest.raises(ValueError, match="grad_accum: 1"):
+        _configure_deepspeed(accelerator, StageSettings(batch_size=6, grad_accum=2))
+    _configure_deepspeed(SimpleNamespace(state=SimpleNamespace()), StageSettings(grad_accum=4))  # no DeepSpeed: no-op

@@ -291,6 +291,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: _Bar, latest: P
                 if name in weights:
                     p.copy_(weights[name])
         start = state.step
+    _configure_deepspeed(accelerator, settings)
     trained, optimizer = accelerator.prepare(trained, optimizer)
     trained.train()
 
@@ -387,6 +388,20 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: _Bar, latest: P
         write_json(out / RUN_FILE, run_info)
     accelerator.wait_for_everyone()
     return StageResult(stage, model_dir, settings.steps, last_loss, train_seconds, len(tokenized), start)
+
+
+def _configure_deepspeed(accelerator: Any, settings: Any) -> None:
+    """DeepSpeed reads the micro-batch size from a DataLoader, which this loop does not use: set it here.
+
+    ``accelerator.backward`` steps a DeepSpeed engine after every micro-batch, so accumulation is refused.
+    """
+    plugin = getattr(accelerator.state, "deepspeed_plugin", None)
+    if plugin is None:
+        return
+    if settings.grad_accum != 1:
+        raise ValueError("under DeepSpeed set grad_accum: 1 (raise batch_size or the number of processes instead)")
+    plugin.deepspeed_config["train_micro_batch_size_per_gpu"] = settings.batch_size
+    plugin.deepspeed_config["gradient_accumulation_steps"] = 1
 
 
 def _save(trained: Any, processor: Any, stage: int, out: Path) -> None:
