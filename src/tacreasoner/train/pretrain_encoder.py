@@ -37,6 +37,7 @@ from tacreasoner.model.appearance import AppearanceEncoder
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.masked_video import MaskedVideoConfig, MaskedVideoModel, tube_mask
 from tacreasoner.model.video_processing import VideoProcessingConfig, preprocess_video
+from tacreasoner.train.progress import StageBar
 from tacreasoner.train.state import (
     cosine_with_warmup,
     free_threads,
@@ -200,36 +201,6 @@ def _optimizer(model: torch.nn.Module, lr: float, weight_decay: float) -> torch.
                               {"params": no_decay, "weight_decay": 0.0}], lr=lr, betas=(0.9, 0.95))
 
 
-class _Bar:
-    """A rich progress bar on stderr (or nothing)."""
-
-    def __init__(self, enabled: bool) -> None:
-        self.progress = None
-        if enabled:
-            from rich.console import Console
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-            self.progress = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                                     TextColumn("{task.fields[info]}"), TimeElapsedColumn(),
-                                     console=Console(stderr=True))
-            self.progress.start()
-        self.task = None
-
-    def stage(self, description: str, total: int, done: int = 0) -> None:
-        if self.progress is not None:
-            if self.task is not None:
-                self.progress.stop_task(self.task)
-            self.task = self.progress.add_task(description, total=total, completed=done, info="")
-
-    def update(self, done: int, info: str = "") -> None:
-        if self.progress is not None and self.task is not None:
-            self.progress.update(self.task, completed=done, info=info)
-
-    def close(self) -> None:
-        if self.progress is not None:
-            self.progress.stop()
-
-
 def pretrain_encoder(
     clips: Sequence[TactileClip],
     out_dir: str | os.PathLike[str],
@@ -300,7 +271,7 @@ def pretrain_encoder(
         start = state.step
 
     out.mkdir(parents=True, exist_ok=True)
-    bar = _Bar(progress)
+    bar = StageBar(progress)
     t0 = time.perf_counter()
     threads_before = torch.get_num_threads()
     torch.set_num_threads(free_threads() if threads is None else max(1, int(threads)))
@@ -327,7 +298,7 @@ def pretrain_encoder(
 
 def _train(model: MaskedVideoModel, optimizer: torch.optim.Optimizer, scheduler: Any, data: torch.Tensor, out: Path,
            run: dict, start: int, steps: int, batch_size: int, seed: int, log_every: int, checkpoint_every: int,
-           bar: _Bar, t_pre: float) -> None:
+           bar: StageBar, t_pre: float) -> None:
     grid, ratio = model.encoder.config.grid, model.config.mask_ratio
     bar.stage("pre-training encoder", steps, start)
     model.train()

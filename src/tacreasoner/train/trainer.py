@@ -33,6 +33,7 @@ import torch
 
 from tacreasoner.train.config import TrainConfig
 from tacreasoner.train.data import VideoBank, batch_plan, collate, load_examples, tokenize_examples
+from tacreasoner.train.progress import StageBar
 from tacreasoner.train.state import (
     cosine_with_warmup,
     free_threads,
@@ -152,35 +153,6 @@ def _trainable_state(model: torch.nn.Module) -> dict[str, torch.Tensor]:
 # ------------------------------------------------------------------------------------------ progress
 
 
-class _Bar:
-    def __init__(self, enabled: bool, label: str) -> None:
-        self.progress = None
-        self.label = label
-        if enabled:
-            from rich.console import Console
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-            self.progress = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                                     TextColumn("{task.fields[info]}"), TimeElapsedColumn(),
-                                     console=Console(stderr=True))
-            self.progress.start()
-        self.task = None
-
-    def stage(self, description: str, total: int, done: int = 0) -> None:
-        if self.progress is not None:
-            if self.task is not None:
-                self.progress.stop_task(self.task)
-            self.task = self.progress.add_task(description, total=total, completed=done, info="")
-
-    def update(self, done: int, total: int | None = None, info: str = "") -> None:
-        if self.progress is not None and self.task is not None:
-            self.progress.update(self.task, completed=done, info=info)
-
-    def close(self) -> None:
-        if self.progress is not None:
-            self.progress.stop()
-
-
 # ------------------------------------------------------------------------------------------ the run
 
 
@@ -227,7 +199,7 @@ def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_a
         raise RuntimeError(f"WORLD_SIZE is {world} but Accelerate set up no distributed training "
                            f"({accelerator.distributed_type}): the processes would each train alone")
     main = accelerator.is_main_process
-    bar = _Bar(config.runtime.progress and main, f"stage {stage}")
+    bar = StageBar(config.runtime.progress and main)
     try:
         return _run(config, stage, accelerator, bar, latest, stop_after, on_log, loss_hook)
     finally:
@@ -236,7 +208,7 @@ def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_a
         torch.set_num_threads(threads_before)
 
 
-def _run(config: TrainConfig, stage: int, accelerator: Any, bar: _Bar, latest: Path | None, stop_after: int | None,
+def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, latest: Path | None, stop_after: int | None,
          on_log: Callable[[dict[str, Any]], None] | None,
          loss_hook: Callable[[int, int, torch.Tensor], torch.Tensor] | None) -> StageResult:
     from transformers.utils import logging as hf_logging
@@ -262,7 +234,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: _Bar, latest: P
         raise ValueError(f"every example is longer than data.max_length={config.data.max_length} tokens")
     bank = VideoBank(processor.video_config, processor.sensor_types)
     bar.stage("preprocessing videos", len({k for e in tokenized for k in e.videos}))
-    bank.build([k for e in tokenized for k in e.videos], progress=lambda d, t: bar.update(d, info=f"{d}/{t}"),
+    bank.build([k for e in tokenized for k in e.videos], progress=lambda done, _total: bar.update(done),
                cache_dir=config.data.video_cache)
     if config.data.cache_appearance:
         bank.cache_appearance(base.tactile_encoder)
@@ -367,7 +339,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: _Bar, latest: P
                     accelerator.log({f"train/{k}": v for k, v in record.items() if k != "step"}, step=done)
                 if on_log is not None:
                     on_log(record)
-            bar.update(done, info=f"loss {record['loss']:.4f}  {record['tokens_per_s']:,.0f} tokens/s")
+            bar.update(done, f"loss {record['loss']:.4f}  {record['tokens_per_s']:,.0f} tokens/s")
             losses, tokens_window, window_start = [], 0, time.perf_counter()
         if done % config.runtime.checkpoint_every == 0 or done == settings.steps:
             accelerator.wait_for_everyone()
