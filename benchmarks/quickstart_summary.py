@@ -50,6 +50,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--log", type=Path, required=True)
     parser.add_argument("--run", type=Path, default=Path("runs/quickstart"))
+    parser.add_argument("--note", default="", help="What else ran on the machine meanwhile, etc.")
     parser.add_argument("--command", default='python3 -m venv .venv && .venv/bin/pip install -q -e ".[train]" && '
                                              '.venv/bin/tacreasoner quickstart')
     args = parser.parse_args()
@@ -64,12 +65,12 @@ def main() -> None:
     md = header_md("Quickstart: the whole pipeline from a fresh clone", info)
     md += (f"**Wall time: {stage_total / 60:.1f} min for the quickstart's stages**"
            + (f"; {total / 60:.1f} min including creating the virtual environment and installing" if total else "")
-           + ". Target: ≤ 20 minutes on 2 CPU cores.\n\n")
+           + ". Target: ≤ 20 minutes on 2 CPU cores.\n\n" + (f"Note: {args.note}\n\n" if args.note else ""))
     md += md_table(["stage", "what", "seconds"], [[s["stage"], s["purpose"], s["seconds"] or "–"] for s in stages])
     if ask:
         md += "\nThe `ask` stage (one held-out test clip):\n\n```\n" + "\n".join(ask) + "\n```\n"
     md += "\n---\n\nThe run's own report (`runs/quickstart/report.md`):\n\n" + report.replace("# ", "## ", 1)
-    publish("quickstart", {**info, "stages": stages, "stage_seconds": stage_total, "total_seconds": total,
+    publish("quickstart", {**info, "note": args.note, "stages": stages, "stage_seconds": stage_total, "total_seconds": total,
                            "ask": ask, "results": results}, md)
 
 
