@@ -70,8 +70,8 @@ def main() -> None:
     if ask:
         md += "\nThe `ask` stage (one held-out test clip):\n\n```\n" + "\n".join(ask) + "\n```\n"
     md += "\n---\n\nThe run's own report (`runs/quickstart/report.md`):\n\n" + report.replace("# ", "## ", 1)
-    publish("quickstart", {**info, "note": args.note, "stages": stages, "stage_seconds": stage_total, "total_seconds": total,
-                           "ask": ask, "results": results}, md)
+    publish("quickstart", {**info, "note": args.note, "stages": stages, "stage_seconds": stage_total,
+                           "total_seconds": total, "ask": ask, "results": results}, md)
 
 
 if __name__ == "__main__":
