@@ -246,9 +246,10 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
                                                 settings.weight_decay), betas=(0.9, 0.999))
     scheduler = cosine_with_warmup(optimizer, round(settings.warmup_ratio * settings.steps), settings.steps,
                                    settings.min_lr_ratio)
-    start = 0
+    start, elapsed_before = 0, 0.0
     if latest is not None:
         weights, state = load_checkpoint(latest, optimizer, scheduler)
+        elapsed_before = float(state.extra.get("train_seconds", 0.0))
         saved = state.extra.get("fingerprint")
         now = _fingerprint(config, stage, world)
         if saved is not None and saved != now:
@@ -284,9 +285,6 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
     bar.stage(f"stage {stage} training", settings.steps, start)
     rank, last_loss = accelerator.process_index, None
     tokens_window, window_start, train_start = 0, time.perf_counter(), time.perf_counter()
-    elapsed_before = 0.0
-    if latest is not None:
-        elapsed_before = float(load_state_extra(latest).get("train_seconds", 0.0))
     losses: list[float] = []
     for step in range(start, settings.steps):
         if stop_after is not None and step >= stop_after:
@@ -394,10 +392,6 @@ def _fingerprint(config: TrainConfig, stage: int, world: int) -> dict[str, Any]:
     return {"stage": stage, "seed": config.seed, "model": d["model"], "data": d["data"],
             "stage_settings": d[f"stage{stage}"], "lora": d["lora"] if stage == 2 else None,
             "global_batch": config.stage(stage).batch_size * config.stage(stage).grad_accum * world}
-
-
-def load_state_extra(path: Path) -> dict[str, Any]:
-    return json.loads((path / "state.json").read_text(encoding="utf-8")).get("extra", {})
 
 
 def _flat(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
