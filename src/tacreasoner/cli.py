@@ -764,7 +764,7 @@ def evaluate_cmd(
 
 
 def _predict_split(model_dir: Path, bench: Path, split: str, out: Path, batch_size: int, max_new_tokens: int,
-                   limit: int | None, name: str | None = None) -> tuple[list, Path]:
+                   limit: int | None) -> tuple[list, Path]:
     from tacreasoner.evaluate.predict import load_trained, predict_items
     from tacreasoner.tasks.bench import load_bench
     from tacreasoner.train.data import bench_video_root
@@ -774,7 +774,7 @@ def _predict_split(model_dir: Path, bench: Path, split: str, out: Path, batch_si
     if not items:
         raise ValueError(f"{bench}: split {split!r} has no items")
     model, processor = load_trained(model_dir)
-    path = out / "predictions" / f"{name or split}.jsonl"
+    path = out / "predictions" / f"{split}.jsonl"
     with ClipProgress(f"answering {split}", "items") as bar:
         predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
                       max_new_tokens=max_new_tokens, progress=bar)

@@ -170,3 +170,32 @@ def test_deepspeed_gets_the_micro_batch_and_refuses_accumulation() -> None:
     with pytest.raises(ValueError, match="grad_accum: 1"):
         _configure_deepspeed(accelerator, StageSettings(batch_size=6, grad_accum=2))
     _configure_deepspeed(SimpleNamespace(state=SimpleNamespace()), StageSettings(grad_accum=4))  # no DeepSpeed: no-op
+
+
+def test_evaluate_and_ask_commands_on_a_trained_model(two_stage_run: Path, inputs, tmp_path) -> None:
+    from typer.testing import CliRunner
+
+    from tacreasoner.cli import app
+    from tacreasoner.tasks.bench import load_bench
+
+    model = two_stage_run / "stage2" / "model"
+    runner = CliRunner()
+    result = runner.invoke(app, ["evaluate", "--model", str(model), "--bench", str(inputs["bench"]), "--out",
+                                 str(tmp_path / "eval"), "--limit", "6", "--max-new-tokens", "16"])
+    assert result.exit_code == 0, result.output
+    preds = (tmp_path / "eval" / "predictions" / "test.jsonl").read_text().splitlines()
+    assert len(preds) == 6 and all("prediction" in json.loads(p) for p in preds)
+    assert (tmp_path / "eval" / "report.md").is_file() and "Average" in result.output
+
+    info, items = load_bench(inputs["bench"], "test")
+    video = Path(info["video_root"]) / items[0].videos[0].path
+    result = runner.invoke(app, ["ask", "Is <tactile> soft?", "--video", str(video), "--model", str(model),
+                                 "--max-new-tokens", "8"])
+    assert result.exit_code == 0, result.output
+    assert "think:" in result.output and "answer:" in result.output
+    result = runner.invoke(app, ["ask", "Is <tactile> soft?", "--video", str(tmp_path / "missing.mp4"), "--model",
+                                 str(model)])
+    assert result.exit_code == 2 and "missing.mp4: no such file" in result.output
+    result = runner.invoke(app, ["ask", "Compare <tactile> and <tactile>", "--video", str(video), "--model",
+                                 str(model)])
+    assert result.exit_code == 2 and "2 <tactile> placeholder(s) but 1 video(s)" in result.output

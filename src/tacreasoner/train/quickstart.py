@@ -13,7 +13,7 @@ import json
 import shutil
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -99,12 +99,6 @@ def train_seed(config: TrainConfig) -> dict[str, Any]:
         seconds[f"stage{stage}"] = round(time.perf_counter() - start, 1)
     final = 2 if not config.stage2.skip else 1
     return {"model": str(config.stage_dir(final) / MODEL_DIR), "seconds": seconds}
-
-
-@dataclass
-class SeedEvaluation:
-    report: Any
-    prediction_files: dict[str, list[Path]] = field(default_factory=dict)
 
 
 def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tuple[str, ...] = ("test",), *,
