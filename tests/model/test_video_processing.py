@@ -67,3 +67,11 @@ def test_encoder_config_checks_and_round_trip() -> None:
         TactileEncoderConfig(temporal_tokens=0)
     assert config.sensor_index("digit@30") == 2 and config.sensor_index("mini+markers") == 1
     assert config.sensor_index("gelsight-r1.5") == 0
+
+
+def test_sensor_index_maps_variants_to_their_base_style() -> None:
+    from tacreasoner.model.video_processing import sensor_index
+
+    types = ("unknown", "mini", "digit", "tac3d")
+    assert [sensor_index(s, types) for s in ("mini", "digit@60", "Mini+markers", "tac3d", "gelsight", "")] == \
+        [1, 2, 1, 3, 0, 0]

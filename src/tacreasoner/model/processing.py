@@ -23,7 +23,13 @@ from transformers import AutoTokenizer, BatchFeature, PreTrainedTokenizerBase
 from tacreasoner.jsonl import read_json_object
 from tacreasoner.model.encoder_config import DEFAULT_SENSOR_TYPES, TactileEncoderConfig
 from tacreasoner.model.tokenizer import IM_END, TACTILE_PAD
-from tacreasoner.model.video_processing import VideoInput, VideoProcessingConfig, preprocess_video, sensor_of
+from tacreasoner.model.video_processing import (
+    VideoInput,
+    VideoProcessingConfig,
+    preprocess_video,
+    sensor_index,
+    sensor_of,
+)
 from tacreasoner.tasks.schema import PLACEHOLDER
 
 __all__ = ["IGNORE_INDEX", "PROCESSOR_CONFIG_NAME", "TacReasonerProcessor"]
@@ -90,9 +96,7 @@ class TacReasonerProcessor:
         c = self.video_config
         pixel_values = torch.from_numpy(np.stack(arrays)) if arrays else \
             torch.zeros((0, c.num_frames, 3, *c.image_size))
-        sensors = [sensor_of(v).split("+")[0].split("@")[0].lower() for v in videos]
-        sensor_ids = torch.tensor([self.sensor_types.index(s) if s in self.sensor_types else 0 for s in sensors],
-                                  dtype=torch.long)
+        sensor_ids = torch.tensor([sensor_index(sensor_of(v), self.sensor_types) for v in videos], dtype=torch.long)
         return {"pixel_values": pixel_values, "sensor_ids": sensor_ids}
 
     # ------------------------------------------------------------------ text

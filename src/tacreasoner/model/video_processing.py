@@ -25,7 +25,7 @@ from tacreasoner.data.sampling import (
 )
 from tacreasoner.fields import reject_unknown_fields
 
-__all__ = ["VideoInput", "VideoProcessingConfig", "preprocess_video", "sensor_of"]
+__all__ = ["VideoInput", "VideoProcessingConfig", "preprocess_video", "sensor_index", "sensor_of"]
 
 VideoInput = TactileClip | np.ndarray | str | os.PathLike
 """A clip, T×H×W×3 uint8 frames, or a path to a video file."""
@@ -73,6 +73,12 @@ class VideoProcessingConfig:
 def sensor_of(video: VideoInput) -> str:
     """The sensor style of a clip ('unknown' for bare frames or files)."""
     return video.sensor if isinstance(video, TactileClip) else "unknown"
+
+
+def sensor_index(sensor: str, sensor_types: Sequence[str]) -> int:
+    """Position of a sensor style in ``sensor_types`` ("mini+markers", "digit@60" → their base style); 0 if unknown."""
+    base = sensor.split("+")[0].split("@")[0].lower()
+    return list(sensor_types).index(base) if base in sensor_types else 0
 
 
 def _frames_and_phases(video: VideoInput) -> tuple[np.ndarray, Sequence[str] | None, str]:

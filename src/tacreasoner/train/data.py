@@ -27,6 +27,8 @@ from typing import Any
 import numpy as np
 import torch
 
+from tacreasoner.model.processing import IGNORE_INDEX
+from tacreasoner.model.video_processing import sensor_index
 from tacreasoner.tasks.schema import TFA_TASKS, QAItem, VideoRef
 
 __all__ = ["STAGE1_TASKS", "TrainExample", "VideoBank", "batch_plan", "load_examples", "tokenize_examples"]
@@ -138,7 +140,7 @@ class Tokenized:
 
     @property
     def n_labels(self) -> int:
-        return sum(1 for t in self.labels if t != -100)
+        return sum(1 for t in self.labels if t != IGNORE_INDEX)
 
 
 def tokenize_examples(processor: Any, examples: Sequence[TrainExample], max_length: int,
@@ -178,9 +180,7 @@ class VideoBank:
         arrays, sensors = [], []
         for n, key in enumerate(unique, 1):
             arrays.append(self._pixels(key, Path(cache_dir) if cache_dir is not None else None))
-            path = key[0]
-            sensor = Path(path).parent.name.split("+")[0].split("@")[0].lower()
-            sensors.append(self.sensor_types.index(sensor) if sensor in self.sensor_types else 0)
+            sensors.append(sensor_index(Path(key[0]).parent.name, self.sensor_types))  # clips/<sensor>/<clip>
             if progress is not None:
                 progress(n, len(unique))
         self.index = {k: i for i, k in enumerate(unique)}

@@ -233,9 +233,9 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
     if not tokenized:
         raise ValueError(f"every example is longer than data.max_length={config.data.max_length} tokens")
     bank = VideoBank(processor.video_config, processor.sensor_types)
-    bar.stage("preprocessing videos", len({k for e in tokenized for k in e.videos}))
-    bank.build([k for e in tokenized for k in e.videos], progress=lambda done, _total: bar.update(done),
-               cache_dir=config.data.video_cache)
+    video_keys = [k for e in tokenized for k in e.videos]
+    bar.stage("preprocessing videos", len(set(video_keys)))
+    bank.build(video_keys, progress=lambda done, _total: bar.update(done), cache_dir=config.data.video_cache)
     if config.data.cache_appearance:
         bank.cache_appearance(base.tactile_encoder)
 
