@@ -434,8 +434,9 @@ def _touchcot_stage(bench_dir: Path, out_dir: Path, workers: int, seed: int) -> 
 
     if not load_bench(bench_dir, "train")[1]:
         return ["the train split is empty (too few objects); nothing to explain"]
-    result = build_cot(bench_dir, out_dir, TeacherConfig(backend="rules", model="rules-v1"), workers=workers,
-                       seed=seed)
+    # brief style: the tiny LLM learns short, number-free reasoning in minutes (docs/training.md)
+    teacher = TeacherConfig(backend="rules", model="rules-brief-v1", extra={"style": "brief"})
+    result = build_cot(bench_dir, out_dir, teacher, workers=workers, seed=seed)
     return [f"{result.accepted} accepted of {result.jobs} samples ({result.generated} generated now); "
             f"training files in {out_dir / 'touchcot'}"]
 

@@ -183,6 +183,18 @@ def test_near_duplicates_keep_first():
     assert result.stats["reasons"] == {"near_duplicate": 2}
 
 
+def test_dedup_off_keeps_repeats_but_not_other_failures():
+    item = make_item("TFA-hardness")
+    think = GOOD_HARDNESS_THINK + " So the object is highly deformable."
+    same = [make_sample(item, think, key=k) for k in "abc"]
+    wrong = make_sample(item, think, "extremely hard", key="wrong")
+    result = run(*same, wrong, dedup=False)
+    assert all(s.accepted for s in same) and len(result.accepted) == 3
+    assert wrong.reject_reasons == ["wrong_answer", "contradiction"]
+    run(*same)
+    assert [s.reject_reasons for s in same] == [[], ["near_duplicate"], ["near_duplicate"]]
+
+
 def test_dedup_compares_with_accepted_only():
     item = make_item("TFA-hardness")
     think = GOOD_HARDNESS_THINK + " So the object is highly deformable."

@@ -147,6 +147,67 @@ def test_tsa_is_refused(jobs: list[CoTJob], teacher: RulesTeacher) -> None:
         teacher.generate_sync(CoTJob(tsa, job.stages, job.videos))
 
 
+# ------------------------------------------------------------------------------------------- brief style
+
+
+@pytest.fixture(scope="module")
+def brief_replies(jobs: list[CoTJob]) -> list[str]:
+    return [RulesTeacher(seed=0, style="brief").generate_sync(job).text for job in jobs]
+
+
+def test_brief_replies_are_right_short_and_name_every_stage(jobs: list[CoTJob], brief_replies: list[str],
+                                                            replies: list[str]) -> None:
+    for job, text in zip(jobs, brief_replies, strict=True):
+        think = _think(text)
+        assert score_item(job.item, text, "strict").correct, f"{job.item.id}: {text[-200:]}"
+        for stage in job.stages:
+            assert re.search(STAGE_WORDS[stage], think.lower()), f"{job.item.id}: stage {stage!r} missing in {think!r}"
+        # number-free: the only digits are video numbers and OSC's pairing
+        assert not re.search(r"\d", re.sub(r"Video \d|\d-[ABC]", "", think)), f"{job.item.id}: {think!r}"
+    brief_words = sum(len(_think(t).split()) for t in brief_replies) / len(brief_replies)
+    full_words = sum(len(_think(t).split()) for t in replies) / len(replies)
+    assert brief_words < 70 and brief_words < full_words / 2, (brief_words, full_words)
+
+
+def test_brief_comparisons_describe_each_video_at_its_rank(jobs: list[CoTJob], brief_replies: list[str]) -> None:
+    bank, seen = load_bank(), 0
+    for job, text in zip(jobs, brief_replies, strict=True):
+        if job.item.task not in ("SFD", "SOI"):
+            continue
+        attribute, think = job.item.gold["attribute"], _think(text)
+        for n, rank in enumerate(job.item.meta["ranks"], 1):
+            said = re.search(rf"Video {n} (?:feels|comes across as|is) ([a-z -]+?)(?:,| and Video|\.)", think)
+            assert said and said.group(1) in bank["descriptors"][attribute][rank], f"{job.item.id}: {think!r}"
+            seen += 1
+    assert seen >= 20
+
+
+def test_brief_conclusions_agree_with_the_filter_and_never_contradict(jobs: list[CoTJob],
+                                                                      brief_replies: list[str]) -> None:
+    from tacreasoner.cot.filter import conclusion
+
+    for job, text in zip(jobs, brief_replies, strict=True):
+        item, think = job.item, _think(text)
+        read = conclusion(item, think)
+        assert read is not None, f"{item.id}: no readable conclusion in {think!r}"
+        if item.task == "OCSE":
+            assert not any(s in think.lower() for s in CONTACT_STATES if s != item.answer), f"{item.id}: {think!r}"
+        if item.task == "RFOR":
+            other = "fake" if item.gold["real"] else "real"
+            assert not re.search(rf"\b{other}\b", think.lower()), f"{item.id}: says {other!r}"
+
+
+def test_brief_style_has_its_own_model_id_and_rejects_unknown_styles(jobs: list[CoTJob]) -> None:
+    from tacreasoner.cot.backends import TeacherConfig, make_teacher
+
+    brief = make_teacher(TeacherConfig(backend="rules", model="rules-brief-v1", extra={"style": "brief"}))
+    assert (brief.style, brief.model) == ("brief", "rules-brief-v1")
+    assert brief.generate_sync(jobs[0]).model == "rules-brief-v1"
+    assert make_teacher(TeacherConfig(backend="rules", model="rules-v1")).model == "rules-v1"
+    with pytest.raises(ValueError, match="style must be one of full, brief, got 'short'"):
+        RulesTeacher(style="short")
+
+
 # ------------------------------------------------------------------------------------------- the bank
 
 

@@ -72,3 +72,22 @@ def test_results_table_says_which_tasks_beat_chance(trained_run) -> None:
     assert all(verdict.values()) and all(row.endswith("| yes |") for row in rows[2:-1])
     _, verdict = results_table(evaluate(items, [wrong], "strict", root / "wrong"), {"random": {}})
     assert not any(verdict.values())
+
+
+def test_quickstart_touchcot_is_the_brief_rules_teacher_with_repeats_kept(
+        small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> None:
+    from tacreasoner.cot.backends import load_teacher_config
+    from tacreasoner.cot.build import build_cot
+
+    inputs = training_inputs(small_sim_dataset, tmp_path_factory.mktemp("train_inputs_qs"))
+    out = tmp_path_factory.mktemp("brief_cot")
+    shutil.copytree(inputs["touchcot"].parents[1] / "cue_cache", out / "cue_cache")  # cues are the same
+    result = build_cot(inputs["bench"], out, load_teacher_config(ROOT / "configs" / "teacher-rules-brief.yaml"),
+                       workers=1)
+    samples = [json.loads(line) for line in (out / "samples.jsonl").read_text(encoding="utf-8").splitlines()]
+    assert {s["model"] for s in samples} == {"rules-brief-v1"}
+    thinks = [s["output"].split("</think>")[0] for s in samples]
+    report = json.loads((out / "build_cot.json").read_text(encoding="utf-8"))
+    assert result.accepted == result.jobs and "near_duplicate" not in report["filter"]["reasons"]
+    full = [json.loads(line)["output"] for line in inputs["touchcot"].read_text(encoding="utf-8").splitlines()]
+    assert sum(map(len, thinks)) / len(thinks) < 0.5 * sum(map(len, full)) / len(full)

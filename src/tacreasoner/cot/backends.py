@@ -80,7 +80,8 @@ class TeacherConfig:
     extra: dict[str, Any] = field(default_factory=dict)
     """Backend-specific options: ``openai`` sends them as extra request-body fields (``top_p``, vLLM's
     ``top_k``, ``seed``, …); ``hf`` reads ``device``, ``dtype``, ``seed``, ``trust_remote_code`` and passes the
-    rest to ``generate`` (``top_p``, ``repetition_penalty``, …); ``rules`` reads ``seed``."""
+    rest to ``generate`` (``top_p``, ``repetition_penalty``, …); ``rules`` reads ``seed`` and ``style``
+    (``full`` or ``brief``)."""
 
     def __post_init__(self) -> None:
         self.validate()
@@ -165,7 +166,7 @@ def make_teacher(config: TeacherConfig | dict[str, Any]) -> Teacher:
     if config.backend == "rules":
         from tacreasoner.cot.rules import RulesTeacher
 
-        return RulesTeacher(seed=int(config.extra.get("seed", 0)))
+        return RulesTeacher(seed=int(config.extra.get("seed", 0)), style=str(config.extra.get("style", "full")))
     raise ValueError(f"teacher: unknown backend {config.backend!r}; known: {', '.join(BACKENDS)}")
 
 

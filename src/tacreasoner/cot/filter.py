@@ -21,6 +21,7 @@ Each sample is checked and marked ``accepted`` (True/False) with named ``reject_
   earlier *accepted* sample of the same task; the first one is kept. Candidates come from MinHash
   LSH, and every candidate is verified with the exact Jaccard, so a reported duplicate is a real one
   (a true duplicate at the threshold is missed with probability < 1e-3, by construction of the bands).
+  ``dedup: false`` turns this check off (templated teachers repeat themselves by design).
 * ``reviewer_reject`` — a manual auditor rejected it (:mod:`tacreasoner.cot.audit`); re-filtering
   keeps that verdict.
 
@@ -80,6 +81,9 @@ class FilterConfig:
     max_answer_chars: int = 200
     dedup_threshold: float = 0.9
     """Character 5-gram Jaccard at or above which a think text is a near duplicate; 1.0 = exact copies only."""
+    dedup: bool = True
+    """False keeps repeated reasoning: a templated teacher (the rules teacher's brief style) repeats by
+    design, and dropping its repeats would drop most of the short-reasoning tasks' data."""
     require_stages: bool = True
     skew_threshold: float = 0.10
     """Warn when a class's share among accepted samples differs from its share among all by more than this."""
@@ -374,7 +378,7 @@ def filter_samples(samples: list[CoTSample], config: FilterConfig | None = None)
         reasons, details, think = _check(sample, config)
         if sample.review == "reject":
             reasons.append("reviewer_reject")
-        if not reasons and think is not None:
+        if config.dedup and not reasons and think is not None:
             index = indexes.setdefault(sample.task, _DedupIndex(config.dedup_threshold))
             sh = shingles(think)
             dup = index.query(sh)

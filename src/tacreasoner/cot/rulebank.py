@@ -60,10 +60,17 @@ _SECTION_SLOTS: dict[str, frozenset[str]] = {
     "cue_labels": frozenset(),
     "stage_labels": frozenset(),
     "descriptors": frozenset(),
+    "brief_stages": frozenset({"stages"}),
+    "brief_feel": frozenset({"n", "descriptor"}),
+    "brief_profile": frozenset({"intro", "profile"}),
+    "brief_match": frozenset({"n", "profile", "name", "letter"}),
+    "brief_ocse": frozenset(),
 }
 _REQUIRED_SLOTS = {"connectors": frozenset({"reading"}), "context_connectors": frozenset({"reading"}),
                    "value_styles": frozenset({"value", "n"}), "evidence_clause": frozenset({"cue_label", "value"}),
-                   "tipping": frozenset({"cue_label", "values"})}
+                   "tipping": frozenset({"cue_label", "values"}), "brief_stages": frozenset({"stages"}),
+                   "brief_feel": frozenset({"n", "descriptor"}), "brief_profile": frozenset({"intro", "profile"}),
+                   "brief_match": frozenset({"n", "profile", "name", "letter"})}
 _DATA_SECTIONS = frozenset({"version", "typical", "evidence", "stage_cue", "ocse_checks"})
 CONCLUSION_KEYS = ("TFA", "TFA-combined", "SFD-which", "SFD-yes", "SFD-no", "SOI", "OSC", "RFOR", "OCSE")
 OPENER_KEYS = ("TFA", "TFA-combined", "SFD", "SOI", "OSC", "RFOR", "OCSE")
@@ -176,7 +183,7 @@ def _check_data(bank: RulesBank) -> None:
         if d["stage_cue"][stage] not in d["cue_labels"]:
             raise RulesBankError(f"{bank.where('stage_cue', stage)}: cue needs an entry in 'cue_labels'")
     for state in CONTACT_STATES:
-        for section in ("ocse_checks", "ocse_readings"):
+        for section in ("ocse_checks", "ocse_readings", "brief_ocse"):
             if state not in d[section]:
                 raise RulesBankError(f"{bank.where(section)}: no entry for contact state {state!r}")
         for i, check in enumerate(d["ocse_checks"][state]):

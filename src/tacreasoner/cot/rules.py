@@ -10,6 +10,12 @@ offline and in tests. Wording lives in ``rules_bank.yaml``; this module decides 
 * comparisons (SFD, SOI, OSC) quote every video's value of the same cue, stage by stage;
 * the conclusion restates the gold answer, and the answer tag holds it verbatim.
 
+``style="brief"`` writes short, number-free reasoning instead (~40–70 words): every required stage
+named with the reading of the gold level, how each video feels for comparisons and matching, then the
+conclusion. A tiny student LLM cannot learn to write the full style's quoted measurements in a CPU
+budget (docs/training.md); the brief style keeps the think-then-answer shape it can learn. Brief
+readings state the gold level's percept per stage without checking each cue against it.
+
 Every sentence is checked against the gold before it is used (no other level phrase, verdict or
 contact state), and the conclusion must score as correct under the lenient scorer, so the reasoning
 never contradicts the answer. Output is deterministic for (seed, job key).
@@ -31,10 +37,21 @@ from tacreasoner.tasks.schema import QAItem
 from tacreasoner.tasks.scoring import score_item
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
-__all__ = ["BANK_FILE", "RulesBank", "RulesBankError", "RulesTeacher", "Trace", "load_bank"]
+__all__ = ["BANK_FILE", "STYLES", "RulesBank", "RulesBankError", "RulesTeacher", "Trace", "load_bank"]
 
 MAX_TRIES = 8
 """Variants tried per sentence before falling back to a plainer one."""
+
+STYLES = {"full": "rules-v1", "brief": "rules-brief-v1"}
+"""Writing style → the teacher's model id (part of every job's cache key, so styles never mix)."""
+
+_STAGE_NOUNS = {"press": "the press", "hold": "the hold", "slide": "the slide", "rotate": "the rotation",
+                "release": "the release"}
+
+
+def _join(words: Sequence[str]) -> str:
+    """``a``, ``a and b``, ``a, b and c``."""
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + f" and {words[-1]}"
 
 
 # ------------------------------------------------------------------------------------------- consistency
@@ -211,15 +228,45 @@ def _supports(bank: RulesBank, cue: str, value: float, sign: int, level: int) ->
     return abs(_implied_level(bank, cue, value, sign) - level) <= 1
 
 
+def _comparison(item: QAItem, n: int) -> tuple[list[tuple[int, int]], dict[str, str]]:
+    """(higher, lower) video pairs the gold ordering asserts, and the wording slots of an SFD/SOI item."""
+    gold = item.gold
+    attribute = gold["attribute"]
+    attr = get_vocabulary(item.vocabulary)[attribute]
+    if item.task == "SFD":
+        winner = gold["index"] if gold["kind"] == "which" else (0 if gold["value"] else 1)
+        more = gold["direction"] == "more"
+        hi, lo = (winner, 1 - winner) if more else (1 - winner, winner)
+        pairs = [(hi, lo)]
+        ctx = {"comparative": attr.more if more else attr.less}
+    else:
+        winner = gold["index"]
+        others = [v for v in range(n) if v != winner]
+        pairs = [(winner, o) for o in others] if gold["direction"] == "most" else [(o, winner) for o in others]
+        ctx = {"superlative": attr.most if gold["direction"] == "most" else attr.least}
+    return pairs, ctx | {"attribute": attribute, "winner": f"Video {winner + 1}"}
+
+
+def _ranks(item: QAItem, n: int, kind: type) -> list | None:
+    """Per-video attribute ranks the benchmark builder stored (``meta.ranks``), when well-formed."""
+    ranks = item.meta.get("ranks")
+    if isinstance(ranks, list) and len(ranks) == n and all(isinstance(r, kind) for r in ranks):
+        return ranks
+    return None
+
+
 class RulesTeacher:
     """Offline teacher: ``generate(job, prompt)`` → ``<think>…</think><answer>gold</answer>``."""
 
     name = "rules"
-    model = "rules-v1"
 
-    def __init__(self, seed: int = 0, bank: RulesBank | None = None) -> None:
+    def __init__(self, seed: int = 0, bank: RulesBank | None = None, style: str = "full") -> None:
+        if style not in STYLES:
+            raise ValueError(f"rules teacher: style must be one of {', '.join(STYLES)}, got {style!r}")
         self.seed = int(seed)
         self.bank = bank or load_bank()
+        self.style = style
+        self.model = STYLES[style]
 
     @property
     def teacher_id(self) -> str:
@@ -246,6 +293,11 @@ class RulesTeacher:
             raise ValueError(f"item {item.id!r}: TSA is zero-shot and never gets TouchCoT reasoning")
         w = _Writer(self.bank, item, self._rng(job))
         task = item.task
+        if self.style == "brief":
+            body, ctx = self._brief(w, job)
+            conclusion = self._conclusion(w, item, ctx)
+            sentences = [_sentence(s) for s in body] + [conclusion]
+            return Trace(" ".join(sentences), item.answer, sentences, w.used)
         if task == "TFA-combined":
             body, ctx = self._combined(w, job)
         elif task.startswith("TFA-"):
@@ -361,7 +413,7 @@ class RulesTeacher:
         item = job.item
         vocab = get_vocabulary(item.vocabulary)
         names = list(vocab)
-        ctx = {"attributes": ", ".join(names[:-1]) + f" and {names[-1]}"}
+        ctx = {"attributes": _join(names)}
         body = self._single_stages(w, job, lambda s: [], None, ctx)
         video = job.videos[0]
         for attribute, level in item.gold["levels"].items():
@@ -406,27 +458,86 @@ class RulesTeacher:
             body.append(reading)
         return body, ctx
 
+    # ------------------------------------------------------------------------------------ brief style
+
+    def _brief(self, w: _Writer, job: CoTJob) -> tuple[list[str], dict[str, str]]:
+        item, task = job.item, job.item.task
+        if task == "TFA-combined":
+            return self._brief_combined(w, job)
+        if task.startswith("TFA-"):
+            attribute, level = task.removeprefix("TFA-"), item.gold["level"]
+            ctx = {"attribute": attribute}
+            return self._brief_stages(w, job, lambda stage: ("readings", attribute, _stage_key(stage), level), ctx), ctx
+        if task == "RFOR":
+            real = bool(item.gold["real"])
+            ctx = {"fruit": str(item.gold.get("fruit", "fruit"))}
+            return self._brief_stages(w, job, lambda stage: ("rfor_readings", stage, real), ctx), ctx
+        if task in ("SFD", "SOI"):
+            return self._brief_compare(w, job)
+        if task == "OSC":
+            return self._brief_osc(w, job)
+        if task == "OCSE":
+            ctx = {"state": item.gold["state"]}
+            seen = w.pick(("brief_ocse", item.gold["state"]), ctx, "segment", w.ok)
+            reading = w.pick(("ocse_readings", item.gold["state"]), ctx, "segment.reading", w.ok)
+            return [s for s in (seen, reading) if s], ctx
+        raise ValueError(f"item {item.id!r}: the rules teacher has no plan for task {task!r}")
+
+    def _brief_stages(self, w: _Writer, job: CoTJob, at: Callable[[str], tuple], ctx: Mapping[str, str]) -> list[str]:
+        """One short sentence per required stage: its label and what it says at the gold level."""
+        out = []
+        for stage in job.stages:
+            options: Any = self.bank.data
+            for key in at(stage):
+                options = options.get(key) if isinstance(options, Mapping) else None
+            reading = w.pick(at(stage), ctx, f"{stage}.reading", w.ok) if options else None
+            reading = reading or w.pick(("context", stage), ctx, f"{stage}.context", w.ok)
+            label = w.word("stage_labels", stage)
+            out.append(f"{label}, {reading}" if reading else f"{label}, nothing decisive shows")
+        return out
+
+    def _brief_intro(self, w: _Writer, job: CoTJob) -> str:
+        nouns = [_STAGE_NOUNS[s] for s in job.stages if s in _STAGE_NOUNS] or ["the contact"]
+        return w.pick(("brief_stages",), {"stages": _join(nouns)}, "stages") or f"across {_join(nouns)}"
+
+    def _brief_compare(self, w: _Writer, job: CoTJob) -> tuple[list[str], dict[str, str]]:
+        """How each video feels for the asked attribute (its rank), which decides the comparison."""
+        ranks = _ranks(job.item, len(job.videos), int)
+        if ranks is None:
+            return self._compare(w, job)
+        _, ctx = _comparison(job.item, len(job.videos))
+        feels = [w.pick(("brief_feel",), {"n": str(v + 1), "descriptor": w.word("descriptors", ctx["attribute"], r)},
+                        f"video{v + 1}", w.ok) or f"Video {v + 1} feels {w.word('descriptors', ctx['attribute'], r)}"
+                 for v, r in enumerate(ranks)]
+        return [f"{self._brief_intro(w, job)}, {_join(feels)}"], ctx
+
+    def _brief_osc(self, w: _Writer, job: CoTJob) -> tuple[list[str], dict[str, str]]:
+        item = job.item
+        ranks = _ranks(item, len(job.videos), dict)
+        if ranks is None:
+            return self._osc(w, job)
+        body = []
+        for v, k in enumerate(item.gold["assignment"]):
+            profile, _ = self._profile(w, job, v, ranks)
+            slots = {"n": str(v + 1), "profile": profile, "name": item.options[k], "letter": "ABC"[k]}
+            body.append(w.pick(("brief_match",), slots, "osc.match", w.ok)
+                        or f"Video {v + 1} goes with the {item.options[k]} ({'ABC'[k]})")
+        body[0] = f"{self._brief_intro(w, job)}, {_lower_first(body[0])}"
+        return body, {"attributes": _join(list(get_vocabulary(item.vocabulary)))}
+
+    def _brief_combined(self, w: _Writer, job: CoTJob) -> tuple[list[str], dict[str, str]]:
+        item = job.item
+        ctx = {"attributes": _join(list(get_vocabulary(item.vocabulary)))}
+        profile = _join([w.word("descriptors", a, level) for a, level in item.gold["levels"].items()])
+        intro = self._brief_intro(w, job)
+        text = w.pick(("brief_profile",), {"intro": intro, "profile": profile}, "profile", w.ok)
+        return [text or f"{intro}, I rate {ctx['attributes']} in turn"], ctx
+
     # ------------------------------------------------------------------------------------ comparisons
 
     def _compare(self, w: _Writer, job: CoTJob) -> tuple[list[str], dict[str, str]]:
-        item = job.item
-        gold = item.gold
-        attribute = gold["attribute"]
-        attr = get_vocabulary(item.vocabulary)[attribute]
-        n = len(job.videos)
-        if item.task == "SFD":
-            winner = gold["index"] if gold["kind"] == "which" else (0 if gold["value"] else 1)
-            more = gold["direction"] == "more"
-            hi, lo = (winner, 1 - winner) if more else (1 - winner, winner)
-            pairs = [(hi, lo)]
-            ctx = {"comparative": attr.more if more else attr.less}
-        else:
-            winner = gold["index"]
-            others = [v for v in range(n) if v != winner]
-            pairs = [(winner, o) for o in others] if gold["direction"] == "most" else [(o, winner) for o in others]
-            ctx = {"superlative": attr.most if gold["direction"] == "most" else attr.least}
-        ctx |= {"attribute": attribute, "winner": f"Video {winner + 1}"}
-        evidence = self.bank["evidence"].get(attribute, {})
+        pairs, ctx = _comparison(job.item, len(job.videos))
+        evidence = self.bank["evidence"].get(ctx["attribute"], {})
         body = []
         for stage in job.stages:
             body.append(self._compare_stage(w, job, stage, evidence.get(_stage_key(stage), []), pairs, ctx))
@@ -491,7 +602,7 @@ class RulesTeacher:
         assignment = item.gold["assignment"]
         ranks = item.meta.get("ranks") if isinstance(item.meta.get("ranks"), list) else None
         vocab = get_vocabulary(item.vocabulary)
-        ctx = {"attributes": ", ".join(list(vocab)[:-1]) + f" and {list(vocab)[-1]}"}
+        ctx = {"attributes": _join(list(vocab))}
         body = []
         for stage in job.stages:
             cues = [c for a in vocab for c, _ in self.bank["evidence"].get(a, {}).get(_stage_key(stage), [])]
