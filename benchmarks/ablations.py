@@ -16,6 +16,8 @@ Variants (Table 3: DynEncoder × CoT-SFT; Table 4: training stages; plus the enc
     no_qcond       temporal pooling not conditioned on the question
     cls_only       1 tactile token per video (the paper's CLS-only mode) instead of 5
     plain_hardness_only  diagnostic (not in the paper, not run by default): Stage II on plain TFA-hardness only
+    plain_tfa_only       diagnostic (not run by default): both stages on the four TFA attributes only, Stage II
+                         on plain answers, 1200 steps (~300 per attribute)
 
 Each variant is trained and evaluated on the held-out test objects; the table gives per-task accuracy with
 Wilson 95% intervals and the exact McNemar p-value of each variant against `full` on the same items.
@@ -44,6 +46,10 @@ VARIANTS: dict[str, dict] = {
     "cls_only": {"model": {"encoder": {"tokens_per_video": 1}}},
     # diagnostic, not in the paper: is the LLM side able to learn one attribute when it sees only that task?
     "plain_hardness_only": {"data": {"stage2_data": "plain", "tasks": ["TFA-hardness"]}},
+    # diagnostic: do the four attribute questions interfere with each other, or do the other tasks?
+    "plain_tfa_only": {"data": {"stage2_data": "plain", "tasks": ["TFA-hardness", "TFA-protrusion", "TFA-elasticity",
+                                                                  "TFA-friction"]},
+                       "stage2": {"steps": 1200}},
 }
 DESCRIPTIONS = {
     "full": "Stage I + Stage II (TouchCoT), dynamic encoder",
@@ -55,6 +61,7 @@ DESCRIPTIONS = {
     "no_qcond": "temporal pooling ignores the question",
     "cls_only": "1 token per video (CLS only)",
     "plain_hardness_only": "diagnostic: Stage II on plain TFA-hardness answers only",
+    "plain_tfa_only": "diagnostic: Stage II on plain answers of the four TFA attributes, 1200 steps",
 }
 
 
@@ -73,7 +80,7 @@ def _config(paths, name: str, seed: int):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--run", type=Path, default=Path("runs/quickstart"))
-    parser.add_argument("--variants", default=",".join(v for v in VARIANTS if v != "plain_hardness_only"))
+    parser.add_argument("--variants", default=",".join(v for v in VARIANTS if not v.startswith("plain_")))
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--name", default="ablations", help="Result file stem under benchmarks/results/.")
     args = parser.parse_args()
