@@ -68,9 +68,9 @@ _SECTION_SLOTS: dict[str, frozenset[str]] = {
 }
 _REQUIRED_SLOTS = {"connectors": frozenset({"reading"}), "context_connectors": frozenset({"reading"}),
                    "value_styles": frozenset({"value", "n"}), "evidence_clause": frozenset({"cue_label", "value"}),
-                   "tipping": frozenset({"cue_label", "values"}), "brief_stages": frozenset({"stages"}),
-                   "brief_feel": frozenset({"n", "descriptor"}), "brief_profile": frozenset({"intro", "profile"}),
-                   "brief_match": frozenset({"n", "profile", "name", "letter"})}
+                   "tipping": frozenset({"cue_label", "values"}),
+                   # brief-style templates need every slot they allow
+                   **{s: _SECTION_SLOTS[s] for s in ("brief_stages", "brief_feel", "brief_profile", "brief_match")}}
 _DATA_SECTIONS = frozenset({"version", "typical", "evidence", "stage_cue", "ocse_checks"})
 CONCLUSION_KEYS = ("TFA", "TFA-combined", "SFD-which", "SFD-yes", "SFD-no", "SOI", "OSC", "RFOR", "OCSE")
 OPENER_KEYS = ("TFA", "TFA-combined", "SFD", "SOI", "OSC", "RFOR", "OCSE")

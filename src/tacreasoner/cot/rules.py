@@ -506,9 +506,11 @@ class RulesTeacher:
         if ranks is None:
             return self._compare(w, job)
         _, ctx = _comparison(job.item, len(job.videos))
-        feels = [w.pick(("brief_feel",), {"n": str(v + 1), "descriptor": w.word("descriptors", ctx["attribute"], r)},
-                        f"video{v + 1}", w.ok) or f"Video {v + 1} feels {w.word('descriptors', ctx['attribute'], r)}"
-                 for v, r in enumerate(ranks)]
+        feels = []
+        for v, rank in enumerate(ranks):
+            slots = {"n": str(v + 1), "descriptor": w.word("descriptors", ctx["attribute"], rank)}
+            fallback = "Video {n} feels {descriptor}".format(**slots)
+            feels.append(w.pick(("brief_feel",), slots, f"video{v + 1}", w.ok) or fallback)
         return [f"{self._brief_intro(w, job)}, {_join(feels)}"], ctx
 
     def _brief_osc(self, w: _Writer, job: CoTJob) -> tuple[list[str], dict[str, str]]:
@@ -600,7 +602,7 @@ class RulesTeacher:
     def _osc(self, w: _Writer, job: CoTJob) -> tuple[list[str], dict[str, str]]:
         item = job.item
         assignment = item.gold["assignment"]
-        ranks = item.meta.get("ranks") if isinstance(item.meta.get("ranks"), list) else None
+        ranks = _ranks(item, len(job.videos), dict)
         vocab = get_vocabulary(item.vocabulary)
         ctx = {"attributes": _join(list(vocab))}
         body = []
@@ -622,11 +624,13 @@ class RulesTeacher:
                         or f"Video {v + 1} goes with the {item.options[k]} ({'ABC'[k]})")
         return body, ctx
 
-    def _profile(self, w: _Writer, job: CoTJob, v: int, ranks: list | None) -> tuple[str, str]:
-        """Descriptor words for video ``v`` from the attributes that set it apart, and a cue to cite."""
+    def _profile(self, w: _Writer, job: CoTJob, v: int, ranks: list[dict] | None) -> tuple[str, str]:
+        """Descriptor words for video ``v`` from the attributes that set it apart, and a cue to cite.
+
+        ``ranks``: one attribute → rank mapping per video, as :func:`_ranks` checks it (None: unknown)."""
         video = job.videos[v]
         fallback_cue = next((c for c in ("press_area", "creep", "shear_tint") if c in video.cues), "max_area")
-        if not ranks or len(ranks) != len(job.videos) or not all(isinstance(r, dict) for r in ranks):
+        if ranks is None:
             return "distinct", fallback_cue
         mine = ranks[v]
         scored = []

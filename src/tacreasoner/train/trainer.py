@@ -150,9 +150,6 @@ def _trainable_state(model: torch.nn.Module) -> dict[str, torch.Tensor]:
     return {name: p.detach() for name, p in model.named_parameters() if p.requires_grad}
 
 
-# ------------------------------------------------------------------------------------------ progress
-
-
 # ------------------------------------------------------------------------------------------ the run
 
 
