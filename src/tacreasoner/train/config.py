@@ -5,7 +5,7 @@ A file has five sections (every key optional except where noted)::
     output_dir: runs/train          # stage1/ and stage2/ are written under it
     seed: 0
     model:    {llm, appearance, encoder: {...ablation switches...}, dtype, gradient_checkpointing}
-    data:     {bench, touchcot, stage2_data, tasks, max_length, group_by_length, cache_appearance}
+    data:     {bench, touchcot, stage2_data, tasks, max_length, group_by_length, length_group_batches, ...}
     stage1:   {steps, batch_size, grad_accum, lr, projector_lr, weight_decay, warmup_ratio, ...}
     stage2:   {... same fields ...}
     lora:     {r, alpha, dropout, target_modules}
@@ -77,7 +77,11 @@ class DataSettings:
     """Restrict training items to these tasks (default: all in the files; TSA is never trained on)."""
     max_length: int = 768
     """Longer examples are dropped and counted (never silently truncated mid-answer)."""
-    group_by_length: bool = True
+    group_by_length: bool = False
+    """Sort chunks of ``length_group_batches`` global batches by length: less padding, but length follows task
+    and answer, so batches hold fewer tasks and answers (benchmarks/results/batch_mix.md; it cost the tiny
+    model accuracy, docs/training.md)."""
+    length_group_batches: int = 32
     cache_appearance: bool = True
     """Run the frozen appearance ViT once per clip instead of every step (identical output, faster)."""
     max_items: int | None = None
@@ -90,6 +94,8 @@ class DataSettings:
             raise ValueError(f"data.stage2_data: {self.stage2_data!r} is not one of {', '.join(STAGE2_DATA)}")
         if self.max_length < 16:
             raise ValueError(f"data.max_length must be at least 16, got {self.max_length}")
+        if self.length_group_batches < 1:
+            raise ValueError(f"data.length_group_batches must be at least 1, got {self.length_group_batches}")
         if self.max_items is not None and self.max_items < 1:
             raise ValueError(f"data.max_items must be at least 1, got {self.max_items}")
         if self.tasks is not None:

@@ -19,7 +19,8 @@ import hashlib
 import json
 import os
 import random
-from collections.abc import Callable, Sequence
+from collections import Counter
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -31,7 +32,8 @@ from tacreasoner.model.processing import IGNORE_INDEX
 from tacreasoner.model.video_processing import sensor_index
 from tacreasoner.tasks.schema import TFA_TASKS, QAItem, VideoRef
 
-__all__ = ["STAGE1_TASKS", "TrainExample", "VideoBank", "batch_plan", "load_examples", "tokenize_examples"]
+__all__ = ["STAGE1_TASKS", "TrainExample", "VideoBank", "batch_plan", "batch_purity", "load_examples",
+           "padding_fraction", "tokenize_examples"]
 
 STAGE1_TASKS = (*TFA_TASKS, "RFOR", "OCSE")
 """Single-clip description tasks: Stage I's alignment data."""
@@ -252,15 +254,20 @@ def collate(processor: Any, examples: Sequence[Tokenized], bank: VideoBank) -> d
 # ------------------------------------------------------------------------------------------ order
 
 
-def batch_plan(lengths: Sequence[int], global_batch: int, step: int, seed: int, group_by_length: bool) -> list[int]:
-    """Example indices of optimizer step ``step`` (global batch), a pure function of its arguments.
+def batch_plan(lengths: Sequence[int], global_batch: int, step: int, seed: int, group_by_length: bool,
+               group_batches: int = 32) -> list[int]:
+    """Example indices of optimizer step ``step`` (global batch), a pure function of its arguments (resume).
 
-    Each epoch is a seeded shuffle; with ``group_by_length`` the shuffle is cut into chunks of 32 global
-    batches, each sorted by length (less padding), and the batches then shuffled again.
+    Each epoch is a seeded shuffle; with ``group_by_length`` the shuffle is cut into chunks of
+    ``group_batches`` global batches, each sorted by length (less padding), and the batches then shuffled
+    again. Length follows task and answer, so the longer the chunk the more a batch holds one task and one
+    answer (benchmarks/results/batch_mix.md); 1 is the plain shuffle.
     """
     n = len(lengths)
     if n == 0:
         raise ValueError("no training examples")
+    if group_batches < 1:
+        raise ValueError(f"group_batches must be at least 1, got {group_batches}")
     per_epoch = max(1, n // global_batch)
     epoch, within = divmod(step, per_epoch)
     order = list(range(n))
@@ -269,8 +276,8 @@ def batch_plan(lengths: Sequence[int], global_batch: int, step: int, seed: int, 
     if n < global_batch:  # tiny data: repeat the shuffled list to fill one batch
         order = (order * (global_batch // n + 1))[:global_batch]
     order = order[: per_epoch * global_batch]
-    if group_by_length:
-        chunk = 32 * global_batch
+    if group_by_length and group_batches > 1:
+        chunk = group_batches * global_batch
         grouped: list[list[int]] = []
         for c in range(0, len(order), chunk):
             part = sorted(order[c:c + chunk], key=lambda i: lengths[i])
@@ -278,3 +285,19 @@ def batch_plan(lengths: Sequence[int], global_batch: int, step: int, seed: int, 
         rng.shuffle(grouped)
         return grouped[within]
     return order[within * global_batch:(within + 1) * global_batch]
+
+
+def padding_fraction(lengths: Sequence[int], batches: Iterable[Sequence[int]]) -> float:
+    """Share of the padded token grid that is padding (right-padding to each batch's longest)."""
+    grid = real = 0
+    for batch in batches:
+        sizes = [lengths[i] for i in batch]
+        grid += max(sizes) * len(sizes)
+        real += sum(sizes)
+    return 1.0 - real / grid if grid else 0.0
+
+
+def batch_purity(batches: Iterable[Sequence[int]], labels: Sequence[object]) -> float:
+    """Mean share of a batch taken by its most common label (1 = every batch holds one label)."""
+    shares = [Counter(labels[i] for i in batch).most_common(1)[0][1] / len(batch) for batch in batches if batch]
+    return sum(shares) / len(shares) if shares else 0.0

@@ -287,7 +287,8 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
         if stop_after is not None and step >= stop_after:
             accelerator.wait_for_everyone()
             return StageResult(stage, out, step, last_loss, 0.0, len(tokenized), start)
-        indices = batch_plan(lengths, global_batch, step, config.seed, config.data.group_by_length)
+        indices = batch_plan(lengths, global_batch, step, config.seed, config.data.group_by_length,
+                             config.data.length_group_batches)
         mine = indices[rank * settings.batch_size * settings.grad_accum:(rank + 1) * settings.batch_size
                        * settings.grad_accum]
         micro = [mine[i:i + settings.batch_size] for i in range(0, len(mine), settings.batch_size)]
