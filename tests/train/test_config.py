@@ -79,6 +79,7 @@ def test_an_unknown_key_error_points_at_the_key_itself(tmp_path, text, line) -> 
     ("seed: 0\ndata:\n  tasks: [SFD, TSA]\n", ["data.tasks", "TSA", "never trained on"]),
     ("seed: 0\ndata:\n  tasks: [SFD, XYZ]\n", ["data.tasks", "'XYZ'", "known:"]),
     ("seed: 0\ndata:\n  max_length: 8\n", ["data.max_length", "16"]),
+    ("seed: 0\ndata:\n  length_group_batches: 0\n", ["data.length_group_batches", "at least 1"]),
     ("seed: 0\nruntime:\n  mixed_precision: fp8\n", ["runtime.mixed_precision", "'fp8'", "bf16"]),
     ("seed: 0\nruntime:\n  log_with: wandb\n", ["runtime.log_with", "'wandb'", "tensorboard"]),
     ("seed: 0\nruntime:\n  checkpoint_every: 0\n", ["runtime.checkpoint_every"]),
