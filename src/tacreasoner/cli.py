@@ -290,11 +290,15 @@ def quickstart(
                                                        "cores); the report gives mean ± std over them.")] = 1,
     train_model: Annotated[bool, typer.Option("--train/--no-train", help="Pre-train, train Stage I + II, evaluate "
                                                                           "and ask (off: data stages only).")] = True,
+    processes: Annotated[int, typer.Option("--processes", help="Training processes (CPU DDP via torch.distributed."
+                                                               "run, same global batch; 2 uses both cores of a "
+                                                               "2-core machine). Results are measured with 1.")] = 1,
 ) -> None:
     """The whole paper on this machine: simulate → benchmark → TouchCoT → pre-train → Stage I → Stage II →
     evaluate on held-out objects → report → ask (resumable: re-running skips finished work)."""
     _at_least_one("--workers", workers)
     _at_least_one("--seeds", seeds)
+    _at_least_one("--processes", processes)
     sim_dir, preview_dir, bench_dir = out / "sim", out / "preview", out / "bench"
 
     def simulate_stage() -> list[str]:
@@ -313,7 +317,7 @@ def quickstart(
     ]
     if train_model:
         _needs_train_extra("quickstart")
-        stages += _training_stages(out, seed, seeds)
+        stages += _training_stages(out, seed, seeds, processes)
     started = time.perf_counter()
     run_stages(stages)
     minutes = (time.perf_counter() - started) / 60
@@ -325,7 +329,7 @@ def quickstart(
                   f"\"Is <tactile> real or fake?\" --video <clip.mp4>")
 
 
-def _training_stages(out: Path, seed: int, seeds: int) -> list[Stage]:
+def _training_stages(out: Path, seed: int, seeds: int, processes: int = 1) -> list[Stage]:
     from tacreasoner.train.quickstart import QuickstartPaths
 
     paths = QuickstartPaths(out)
@@ -338,7 +342,7 @@ def _training_stages(out: Path, seed: int, seeds: int) -> list[Stage]:
 
         lines = []
         for s in seed_list:
-            info = train_seed(quickstart_config(paths, s))
+            info = train_seed(quickstart_config(paths, s), processes)
             trained[s] = Path(info["model"])
             timings[f"seed{s}"] = info["seconds"]
             took = ", ".join(f"{k} {v:.0f} s" for k, v in info["seconds"].items()) or "already trained"

@@ -10,7 +10,14 @@ import pytest
 from trainsetup import tiny_config, training_inputs
 
 from tacreasoner.train.config import load_train_config
-from tacreasoner.train.quickstart import QuickstartPaths, evaluate_and_report, quickstart_config, results_table
+from tacreasoner.train.quickstart import (
+    QuickstartPaths,
+    distributed_config,
+    evaluate_and_report,
+    quickstart_config,
+    results_table,
+    train_seed,
+)
 from tacreasoner.train.trainer import train_stage
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -28,8 +35,12 @@ def test_quickstart_settings_are_the_tiny_cpu_yaml() -> None:
 
 
 @pytest.fixture(scope="module")
-def trained_run(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
-    inputs = training_inputs(small_sim_dataset, tmp_path_factory.mktemp("train_inputs_qs"))
+def inputs(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> dict:
+    return training_inputs(small_sim_dataset, tmp_path_factory.mktemp("train_inputs_qs"))
+
+
+@pytest.fixture(scope="module")
+def trained_run(inputs: dict, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
     root = tmp_path_factory.mktemp("quick")
     shutil.copytree(inputs["bench"], root / "bench")
     config = tiny_config(inputs, root / "train" / "seed0", data={"bench": str(root / "bench")},
@@ -91,3 +102,22 @@ def test_quickstart_touchcot_is_the_brief_rules_teacher_with_repeats_kept(
     assert result.accepted == result.jobs and "near_duplicate" not in report["filter"]["reasons"]
     full = [json.loads(line)["output"] for line in inputs["touchcot"].read_text(encoding="utf-8").splitlines()]
     assert sum(map(len, thinks)) / len(thinks) < 0.5 * sum(map(len, full)) / len(full)
+
+
+def test_distributed_config_keeps_the_global_batch_and_refuses_an_uneven_split(tmp_path: Path) -> None:
+    config = quickstart_config(QuickstartPaths(tmp_path), 0)
+    split = distributed_config(config, 2, 2)
+    assert split.stage2.batch_size * 2 == config.stage2.batch_size
+    assert split.stage1 == config.stage1 and split.runtime.threads == 1
+    with pytest.raises(ValueError, match="does not split over 3 processes"):
+        distributed_config(config, 2, 3)
+
+
+def test_train_seed_over_two_processes_trains_with_the_same_global_batch(inputs: dict, tmp_path: Path) -> None:
+    config = tiny_config(inputs, tmp_path / "run", stage1={"skip": True})
+    info = train_seed(config, processes=2)
+    run = json.loads((tmp_path / "run" / "stage2" / "run.json").read_text())
+    assert run["processes"] == 2 and run["global_batch"] == config.stage2.batch_size
+    assert run["steps_done"] == config.stage2.steps
+    assert Path(info["model"]).is_dir() and "stage2" in info["seconds"]
+    assert train_seed(config, processes=2)["seconds"] == {}  # done: not redone

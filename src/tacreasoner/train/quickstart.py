@@ -19,7 +19,7 @@ from typing import Any
 
 from tacreasoner.train.config import TrainConfig
 
-__all__ = ["QuickstartPaths", "evaluate_seeds", "quickstart_config", "train_seed"]
+__all__ = ["QuickstartPaths", "distributed_config", "evaluate_seeds", "quickstart_config", "train_seed"]
 
 TINY_SETTINGS: dict[str, Any] = {
     "stage1": {"steps": 300, "batch_size": 16, "lr": 1e-3, "warmup_ratio": 0.05},
@@ -86,19 +86,65 @@ def _stage_done(config: TrainConfig, stage: int) -> bool:
     return run.is_file() and "steps_done" in json.loads(run.read_text(encoding="utf-8"))
 
 
-def train_seed(config: TrainConfig) -> dict[str, Any]:
-    """Stage I then Stage II of one config, each skipped when done and resumed when interrupted."""
+def train_seed(config: TrainConfig, processes: int = 1) -> dict[str, Any]:
+    """Stage I then Stage II of one config, each skipped when done and resumed when interrupted.
+
+    ``processes > 1`` runs each stage as CPU DDP under ``torch.distributed.run`` with the same global batch:
+    one training process leaves the second core idle (docs/training.md).
+    """
     from tacreasoner.train.trainer import MODEL_DIR, train_stage
 
+    if processes < 1:
+        raise ValueError(f"processes must be at least 1, got {processes}")
     seconds: dict[str, float] = {}
     for stage in (1, 2):
         if config.stage(stage).skip or _stage_done(config, stage):
             continue
         start = time.perf_counter()
-        train_stage(config, stage, resume=True)
+        if processes > 1:
+            _train_stage_distributed(config, stage, processes)
+        else:
+            train_stage(config, stage, resume=True)
         seconds[f"stage{stage}"] = round(time.perf_counter() - start, 1)
     final = 2 if not config.stage2.skip else 1
     return {"model": str(config.stage_dir(final) / MODEL_DIR), "seconds": seconds}
+
+
+def distributed_config(config: TrainConfig, stage: int, processes: int) -> TrainConfig:
+    """``config`` split over ``processes`` ranks: the same global batch, one thread each."""
+    settings = config.stage(stage)
+    if settings.batch_size % processes:
+        raise ValueError(f"stage{stage}.batch_size {settings.batch_size} does not split over {processes} processes; "
+                         f"choose a process count that divides it")
+    data = config.to_dict()
+    data[f"stage{stage}"]["batch_size"] = settings.batch_size // processes
+    data["runtime"]["threads"] = 1
+    return TrainConfig.from_dict(data, source=f"quickstart settings over {processes} processes")
+
+
+def _train_stage_distributed(config: TrainConfig, stage: int, processes: int) -> None:
+    import os
+    import socket
+    import subprocess
+    import sys
+
+    import yaml
+
+    split = distributed_config(config, stage, processes)
+    launch = config.stage_dir(stage).with_name(f"stage{stage}.launch.yaml")
+    launch.parent.mkdir(parents=True, exist_ok=True)
+    launch.write_text(yaml.safe_dump(split.to_dict(), sort_keys=False), encoding="utf-8")
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", str(processes),
+           "--master_addr", "127.0.0.1", "--master_port", str(port),
+           "-m", "tacreasoner", "train", "--stage", str(stage), "--config", str(launch), "--resume"]
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "TOKENIZERS_PARALLELISM": "false"}
+    done = subprocess.run(cmd, env=env)
+    if done.returncode != 0:
+        raise RuntimeError(f"stage {stage} over {processes} processes failed (exit code {done.returncode}); "
+                           f"its output is above. Re-run to resume, or use --processes 1")
 
 
 def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tuple[str, ...] = ("test",), *,
