@@ -23,6 +23,7 @@ import re
 import sys
 import tempfile
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, publish, stamp
@@ -34,11 +35,8 @@ SETTINGS = [("shuffle (group_by_length: false)", False, 1), ("grouped, chunks of
             ("grouped, chunks of 8 batches", True, 8), ("grouped, chunks of 32 batches (old default)", True, 32)]
 
 
-def measure(run: Path, stage: int) -> list[dict]:
-    from tacreasoner.model.build import build_model
-
+def measure(run: Path, stage: int, processor: Any) -> list[dict]:
     config = quickstart_config(QuickstartPaths(run), 0)
-    _, processor = build_model(config.model.llm, appearance=config.model.appearance, encoder=config.model.encoder)
     examples = load_examples(stage, config.data.bench, touchcot=config.data.touchcot,
                              stage2_data=config.data.stage2_data)
     tokenized, _ = tokenize_examples(processor, examples, config.data.max_length)
@@ -84,7 +82,11 @@ def main() -> None:
     parser.add_argument("--time-steps", type=int, default=0, help="also time this many Stage II steps per setting")
     args = parser.parse_args()
     info = stamp()
-    rows = measure(args.run, 1) + measure(args.run, 2)
+    from tacreasoner.model.build import build_model
+
+    config = quickstart_config(QuickstartPaths(args.run), 0)
+    _, processor = build_model(config.model.llm, appearance=config.model.appearance, encoder=config.model.encoder)
+    rows = measure(args.run, 1, processor) + measure(args.run, 2, processor)
     timing = time_steps(args.run, args.time_steps) if args.time_steps > 0 else []
     md = header_md("Batch mixing with and without length grouping", info)
     md += ("One epoch of `batch_plan` per setting on the quickstart's Stage I (description) and Stage II "
@@ -94,8 +96,8 @@ def main() -> None:
                    [[r["stage"], r["setting"], r["examples"], r["batch_size"], r["task_purity"],
                      r["answer_purity"], r["padding"]] for r in rows])
     if timing:
-        md += (f"\nStage II step time, {args.time_steps} steps each, back to back on this machine (batch 8, "
-               "from the pre-trained LLM):\n\n")
+        md += (f"\nStage II step time, {args.time_steps} steps each, back to back on this machine (batch "
+               f"{config.stage2.batch_size}, from the pre-trained LLM):\n\n")
         md += md_table(["Setting", "Seconds per step"], [[r["setting"], r["seconds_per_step"]] for r in timing])
         saved = 1 - timing[1]["seconds_per_step"] / timing[0]["seconds_per_step"]
         md += f"\nGrouping saves {saved:.0%} of step time.\n"

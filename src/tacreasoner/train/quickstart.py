@@ -10,12 +10,17 @@ Every step resumes: a finished stage or prediction file is not redone.
 from __future__ import annotations
 
 import json
+import os
 import shutil
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import yaml
 
 from tacreasoner.train.config import TrainConfig
 
@@ -123,22 +128,12 @@ def distributed_config(config: TrainConfig, stage: int, processes: int) -> Train
 
 
 def _train_stage_distributed(config: TrainConfig, stage: int, processes: int) -> None:
-    import os
-    import socket
-    import subprocess
-    import sys
-
-    import yaml
-
     split = distributed_config(config, stage, processes)
     launch = config.stage_dir(stage).with_name(f"stage{stage}.launch.yaml")
     launch.parent.mkdir(parents=True, exist_ok=True)
     launch.write_text(yaml.safe_dump(split.to_dict(), sort_keys=False), encoding="utf-8")
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", str(processes),
-           "--master_addr", "127.0.0.1", "--master_port", str(port),
+    # --standalone: a local rendezvous on a free port, so no port is chosen (or raced for) here
+    cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node", str(processes),
            "-m", "tacreasoner", "train", "--stage", str(stage), "--config", str(launch), "--resume"]
     env = {**os.environ, "OMP_NUM_THREADS": "1", "TOKENIZERS_PARALLELISM": "false"}
     done = subprocess.run(cmd, env=env)
