@@ -21,6 +21,8 @@ import numpy as np
 import torch
 from safetensors.torch import load_file, save_file
 
+from tacreasoner.train.threads import free_threads
+
 __all__ = ["TrainingState", "cosine_with_warmup", "free_threads", "latest_checkpoint", "load_checkpoint",
            "save_checkpoint", "seed_everything", "truncate_log", "write_json"]
 
@@ -31,19 +33,6 @@ def seed_everything(seed: int) -> None:
     random.seed(seed)
     np.random.seed(seed % 2**32)
     torch.manual_seed(seed)
-
-
-def free_threads() -> int:
-    """torch's thread count minus the cores other processes keep busy (1-minute load average).
-
-    With tiny matrices every op waits for its slowest thread: 2 threads on 2 cores next to another busy
-    process trained 4–6× slower than 1 thread (measured while pre-training the tiny LLM and the encoder).
-    """
-    try:
-        busy = os.getloadavg()[0]
-    except OSError:
-        busy = 0.0
-    return max(1, min(torch.get_num_threads(), int((os.cpu_count() or 1) - busy + 0.5)))
 
 
 def cosine_with_warmup(optimizer: torch.optim.Optimizer, warmup_steps: int, total_steps: int,

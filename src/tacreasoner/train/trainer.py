@@ -269,6 +269,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
                 "dropped_too_long": len(dropped), "dropped_examples": dropped[:20], "videos": len(bank.index),
                 "processes": world, "global_batch": global_batch,
                 "mixed_precision": accelerator.mixed_precision, "device": str(accelerator.device),
+                "threads": torch.get_num_threads(),
                 "trainable_parameters": sum(p.numel() for p in base.parameters() if p.requires_grad),
                 "total_parameters": sum(p.numel() for p in base.parameters())}
     if accelerator.is_main_process:
