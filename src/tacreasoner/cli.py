@@ -291,8 +291,8 @@ def quickstart(
     train_model: Annotated[bool, typer.Option("--train/--no-train", help="Pre-train, train Stage I + II, evaluate "
                                                                           "and ask (off: data stages only).")] = True,
     processes: Annotated[int, typer.Option("--processes", help="Training processes (CPU DDP via torch.distributed."
-                                                               "run, same global batch; 2 uses both cores of a "
-                                                               "2-core machine). Results are measured with 1.")] = 1,
+                                                               "run, same global batch), for machines with more "
+                                                               "cores: one process already uses 2 cores.")] = 1,
 ) -> None:
     """The whole paper on this machine: simulate → benchmark → TouchCoT → pre-train → Stage I → Stage II →
     evaluate on held-out objects → report → ask (resumable: re-running skips finished work)."""

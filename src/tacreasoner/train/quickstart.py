@@ -95,7 +95,7 @@ def train_seed(config: TrainConfig, processes: int = 1) -> dict[str, Any]:
     """Stage I then Stage II of one config, each skipped when done and resumed when interrupted.
 
     ``processes > 1`` runs each stage as CPU DDP under ``torch.distributed.run`` with the same global batch:
-    one training process leaves the second core idle (docs/training.md).
+    for CPUs with more cores than one process's threads use well (on 2 cores it gains nothing, docs/training.md).
     """
     from tacreasoner.train.trainer import MODEL_DIR, train_stage
 
