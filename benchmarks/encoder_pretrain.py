@@ -33,7 +33,8 @@ from tacreasoner.model.appearance import AppearanceEncoder, num_parameters
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.video_processing import VideoProcessingConfig, preprocess_video
 from tacreasoner.sim.generate import generate_dataset
-from tacreasoner.train.pretrain_encoder import DEFAULTS, free_threads, pretrain_encoder
+from tacreasoner.train.pretrain_encoder import DEFAULTS, pretrain_encoder
+from tacreasoner.train.threads import free_threads
 
 TASKS = [("hardness", "vtv150k", "hardness"), ("protrusion", "vtv150k", "protrusion"),
          ("elasticity", "vtv150k", "elasticity"), ("friction", "vtv150k", "friction")]

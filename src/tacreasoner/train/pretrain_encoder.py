@@ -40,14 +40,14 @@ from tacreasoner.model.video_processing import VideoProcessingConfig, preprocess
 from tacreasoner.train.progress import StageBar
 from tacreasoner.train.state import (
     cosine_with_warmup,
-    free_threads,
     latest_checkpoint,
     load_checkpoint,
     save_checkpoint,
     truncate_log,
 )
+from tacreasoner.train.threads import free_threads
 
-__all__ = ["DEFAULTS", "PretrainDefaults", "free_threads", "gather_pretraining_clips", "preprocess_clips",
+__all__ = ["DEFAULTS", "PretrainDefaults", "gather_pretraining_clips", "preprocess_clips",
            "pretrain_encoder", "video_config_for"]
 
 CHECKPOINTS = "checkpoints"

@@ -31,15 +31,15 @@ from tacreasoner.knowledge.corpus import EVAL_KINDS, Corpus, EvalQuestion, build
 from tacreasoner.model.tokenizer import END_OF_TEXT, IM_END, tokenizer_training_texts, train_tokenizer
 from tacreasoner.train.state import (
     cosine_with_warmup,
-    free_threads,
     latest_checkpoint,
     load_checkpoint,
     save_checkpoint,
     seed_everything,
     write_json,
 )
+from tacreasoner.train.threads import free_threads
 
-__all__ = ["PretrainSettings", "auto_threads", "evaluate_knowledge", "knowledge_check", "pretrain_llm"]
+__all__ = ["PretrainSettings", "evaluate_knowledge", "knowledge_check", "pretrain_llm"]
 
 IGNORE = -100
 TOKENIZER_DIR = "tokenizer"
@@ -78,11 +78,6 @@ class PretrainSettings:
             raise ValueError("warmup_steps and weight_decay must be >= 0")
         if self.seq_len < 64:
             raise ValueError(f"seq_len must be at least 64 (one dialogue must fit), got {self.seq_len}")
-
-
-def auto_threads() -> int:
-    """Threads for training (kept as a name for callers): see :func:`tacreasoner.train.state.free_threads`."""
-    return free_threads()
 
 
 def bf16_supported() -> bool:
@@ -290,8 +285,9 @@ def pretrain_llm(out_dir: str | Path, *, steps: int = PretrainSettings.steps,
 
     ``resume=True`` continues from the newest checkpoint (same settings required) and reuses the saved
     tokenizer. ``bf16=None`` uses bf16 autocast when the CPU has native bf16; ``threads=None`` picks
-    :func:`auto_threads` (the global torch setting is restored afterwards). ``stop_after`` ends the
-    run early after that many steps *without* the final save (for tests of interrupted runs).
+    :func:`~tacreasoner.train.threads.free_threads` (the global torch setting is restored afterwards).
+    ``stop_after`` ends the run early after that many steps *without* the final save (for tests of
+    interrupted runs).
     """
     settings = PretrainSettings(steps=steps, batch_size=batch_size, seq_len=seq_len, lr=lr, seed=seed,
                                 vocab_size=vocab_size, warmup_steps=warmup_steps, holdout_fraction=holdout_fraction,
@@ -304,7 +300,7 @@ def pretrain_llm(out_dir: str | Path, *, steps: int = PretrainSettings.steps,
     out.mkdir(parents=True, exist_ok=True)
     _check_settings(out, settings, resume)
     before = torch.get_num_threads()
-    torch.set_num_threads(auto_threads() if threads is None else threads)
+    torch.set_num_threads(free_threads() if threads is None else threads)
     try:
         return _train(out, settings, resume=resume, progress=progress, log_every=log_every, stop_after=stop_after,
                       on_log=on_log)
@@ -438,7 +434,7 @@ def evaluate_knowledge(model_dir: str | Path, questions: Sequence[EvalQuestion |
 
     The answer is read with the benchmark's strict extractor (``<think>…</think><answer>…</answer>``,
     a format failure counts as wrong; ``parse_failures`` says how often); ``lenient_accuracy`` uses the
-    lenient extractor for reference. ``threads=None`` uses :func:`auto_threads`.
+    lenient extractor for reference. ``threads=None`` uses :func:`~tacreasoner.train.threads.free_threads`.
     """
     from transformers import AutoModelForCausalLM, AutoTokenizer
 
@@ -459,7 +455,7 @@ def evaluate_knowledge(model_dir: str | Path, questions: Sequence[EvalQuestion |
     texts: dict[int, str] = {}
     start = time.perf_counter()
     before = torch.get_num_threads()
-    torch.set_num_threads(auto_threads() if threads is None else threads)
+    torch.set_num_threads(free_threads() if threads is None else threads)
     try:
         for i in range(0, len(order), batch_size):
             chunk = order[i: i + batch_size]

@@ -21,9 +21,7 @@ import numpy as np
 import torch
 from safetensors.torch import load_file, save_file
 
-from tacreasoner.train.threads import free_threads
-
-__all__ = ["TrainingState", "cosine_with_warmup", "free_threads", "latest_checkpoint", "load_checkpoint",
+__all__ = ["TrainingState", "cosine_with_warmup", "latest_checkpoint", "load_checkpoint",
            "save_checkpoint", "seed_everything", "truncate_log", "write_json"]
 
 CHECKPOINT_PREFIX = "step-"

@@ -36,7 +36,6 @@ from tacreasoner.train.data import VideoBank, batch_plan, collate, load_examples
 from tacreasoner.train.progress import StageBar
 from tacreasoner.train.state import (
     cosine_with_warmup,
-    free_threads,
     latest_checkpoint,
     load_checkpoint,
     save_checkpoint,
@@ -44,6 +43,7 @@ from tacreasoner.train.state import (
     truncate_log,
     write_json,
 )
+from tacreasoner.train.threads import free_threads
 
 __all__ = ["NonFiniteLossError", "StageResult", "check_inputs", "train_stage"]
 
