@@ -17,7 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import Annotated, ParamSpec, TypeVar
+from typing import TYPE_CHECKING, Annotated, ParamSpec, TypeVar
 
 import typer
 from rich.console import Console
@@ -35,6 +35,9 @@ from rich.progress import (
 from rich.text import Text
 
 from tacreasoner import __version__
+
+if TYPE_CHECKING:
+    from tacreasoner.cot.backends import TeacherConfig
 
 app = typer.Typer(
     name="tacreasoner",
@@ -431,16 +434,24 @@ def _baselines_stage(bench_dir: Path, out_dir: Path, seed: int) -> list[str]:
     return lines
 
 
-def _touchcot_stage(bench_dir: Path, out_dir: Path, workers: int, seed: int) -> list[str]:
+def quickstart_teacher() -> TeacherConfig:
+    """The quickstart's teacher (configs/teacher-rules-brief-first.yaml): brief, verdict-first rules reasoning.
+
+    The tiny LLM learns short, number-free reasoning in minutes, and the verdict opens it where Stage I taught
+    the model to read the tactile tokens (docs/training.md).
+    """
     from tacreasoner.cot.backends import TeacherConfig
+
+    return TeacherConfig(backend="rules", model="rules-brief-first-v1", extra={"style": "brief-first"})
+
+
+def _touchcot_stage(bench_dir: Path, out_dir: Path, workers: int, seed: int) -> list[str]:
     from tacreasoner.cot.build import build_cot
     from tacreasoner.tasks.bench import load_bench
 
     if not load_bench(bench_dir, "train")[1]:
         return ["the train split is empty (too few objects); nothing to explain"]
-    # brief style: the tiny LLM learns short, number-free reasoning in minutes (docs/training.md)
-    teacher = TeacherConfig(backend="rules", model="rules-brief-v1", extra={"style": "brief"})
-    result = build_cot(bench_dir, out_dir, teacher, workers=workers, seed=seed)
+    result = build_cot(bench_dir, out_dir, quickstart_teacher(), workers=workers, seed=seed)
     return [f"{result.accepted} accepted of {result.jobs} samples ({result.generated} generated now); "
             f"training files in {out_dir / 'touchcot'}"]
 

@@ -10,6 +10,7 @@ from collections import Counter, defaultdict
 from pathlib import Path
 
 import pytest
+from cot_samples import make_sample
 from touchcot_bench import prepared, variants
 
 from tacreasoner.cot import cuetext
@@ -204,8 +205,28 @@ def test_brief_style_has_its_own_model_id_and_rejects_unknown_styles(jobs: list[
     assert (brief.style, brief.model) == ("brief", "rules-brief-v1")
     assert brief.generate_sync(jobs[0]).model == "rules-brief-v1"
     assert make_teacher(TeacherConfig(backend="rules", model="rules-v1")).model == "rules-v1"
-    with pytest.raises(ValueError, match="style must be one of full, brief, got 'short'"):
+    with pytest.raises(ValueError, match="style must be one of full, brief, brief-first, got 'short'"):
         RulesTeacher(style="short")
+
+
+def test_brief_first_opens_with_the_verdict_then_says_the_brief_reasoning(jobs: list[CoTJob],
+                                                                          brief_replies: list[str]) -> None:
+    from tacreasoner.cot.backends import TeacherConfig, make_teacher
+    from tacreasoner.cot.filter import FilterConfig, filter_samples
+
+    first = make_teacher(TeacherConfig(backend="rules", model="rules-brief-first-v1", extra={"style": "brief-first"}))
+    assert (first.style, first.model) == ("brief-first", "rules-brief-first-v1")
+    for job, brief in zip(jobs, brief_replies, strict=True):
+        text = first.generate_sync(job).text
+        verdict = f"<think>Answer: {job.item.answer}. "
+        assert text.startswith(verdict), f"{job.item.id}: {text[:120]!r}"
+        # the same seeded choices as the brief style: only the opening sentence is new
+        assert text == verdict + brief.removeprefix("<think>"), job.item.id
+        assert score_item(job.item, text, "strict").correct
+    samples = [make_sample(job.item, "", output=first.generate_sync(job).text, stages=list(job.stages), key=f"{i}")
+               for i, job in enumerate(jobs)]
+    result = filter_samples(samples, FilterConfig(dedup=False))
+    assert not result.rejected, [(s.item_id, s.reasons) for s in result.rejected][:3]
 
 
 # ------------------------------------------------------------------------------------------- the bank

@@ -85,18 +85,22 @@ def test_results_table_says_which_tasks_beat_chance(trained_run) -> None:
     assert not any(verdict.values())
 
 
-def test_quickstart_touchcot_is_the_brief_rules_teacher_with_repeats_kept(
+def test_quickstart_touchcot_is_the_brief_first_rules_teacher_with_repeats_kept(
         small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> None:
+    from tacreasoner.cli import quickstart_teacher
     from tacreasoner.cot.backends import load_teacher_config
     from tacreasoner.cot.build import build_cot
 
+    shipped = load_teacher_config(ROOT / "configs" / "teacher-rules-brief-first.yaml")
+    used = quickstart_teacher()
+    assert (used.backend, used.model, used.extra["style"]) == (shipped.backend, shipped.model, shipped.extra["style"])
     inputs = training_inputs(small_sim_dataset, tmp_path_factory.mktemp("train_inputs_qs"))
     out = tmp_path_factory.mktemp("brief_cot")
     shutil.copytree(inputs["touchcot"].parents[1] / "cue_cache", out / "cue_cache")  # cues are the same
-    result = build_cot(inputs["bench"], out, load_teacher_config(ROOT / "configs" / "teacher-rules-brief.yaml"),
-                       workers=1)
+    result = build_cot(inputs["bench"], out, used, workers=1)
     samples = [json.loads(line) for line in (out / "samples.jsonl").read_text(encoding="utf-8").splitlines()]
-    assert {s["model"] for s in samples} == {"rules-brief-v1"}
+    assert {s["model"] for s in samples} == {"rules-brief-first-v1"}
+    assert all(s["output"].startswith(f"<think>Answer: {s['gold_answer']}. ") for s in samples)
     thinks = [s["output"].split("</think>")[0] for s in samples]
     report = json.loads((out / "build_cot.json").read_text(encoding="utf-8"))
     assert result.accepted == result.jobs and "near_duplicate" not in report["filter"]["reasons"]

@@ -92,8 +92,9 @@ def build_cot(bench_dir: str | Path, out_dir: str | Path, teacher_config, *, spl
     keys = {j.key for j in jobs}
     everything = load_samples(out / SAMPLES)[0]
     samples = [s for s in everything if s.key in keys]
-    # the rules teacher's brief style repeats itself by design: dedup would drop most short-task samples
-    result = filter_samples(samples, filter_config or FilterConfig(dedup=getattr(teacher, "style", None) != "brief"))
+    # the rules teacher's brief styles repeat themselves by design: dedup would drop most short-task samples
+    brief = str(getattr(teacher, "style", "")).startswith("brief")
+    result = filter_samples(samples, filter_config or FilterConfig(dedup=not brief))
     review = apply_saved_review(out, everything)
     seconds["filter"] = time.perf_counter() - t
 

@@ -16,6 +16,11 @@ conclusion. A tiny student LLM cannot learn to write the full style's quoted mea
 budget (docs/training.md); the brief style keeps the think-then-answer shape it can learn. Brief
 readings state the gold level's percept per stage without checking each cue against it.
 
+``style="brief-first"`` is the brief style opened by the verdict (``<think>Answer: moderately deformable.
+In the pressing stage, …``): the token that needs the tactile input comes right after the question, where
+Stage I's plain answers taught the model to read it; the rest of the reasoning explains that verdict. It is
+what the quickstart trains on (docs/training.md, "Where the tiny model stands").
+
 Every sentence is checked against the gold before it is used (no other level phrase, verdict or
 contact state), and the conclusion must score as correct under the lenient scorer, so the reasoning
 never contradicts the answer. Output is deterministic for (seed, job key).
@@ -42,7 +47,7 @@ __all__ = ["BANK_FILE", "STYLES", "RulesBank", "RulesBankError", "RulesTeacher",
 MAX_TRIES = 8
 """Variants tried per sentence before falling back to a plainer one."""
 
-STYLES = {"full": "rules-v1", "brief": "rules-brief-v1"}
+STYLES = {"full": "rules-v1", "brief": "rules-brief-v1", "brief-first": "rules-brief-first-v1"}
 """Writing style → the teacher's model id (part of every job's cache key, so styles never mix)."""
 
 _STAGE_NOUNS = {"press": "the press", "hold": "the hold", "slide": "the slide", "rotate": "the rotation",
@@ -293,10 +298,11 @@ class RulesTeacher:
             raise ValueError(f"item {item.id!r}: TSA is zero-shot and never gets TouchCoT reasoning")
         w = _Writer(self.bank, item, self._rng(job))
         task = item.task
-        if self.style == "brief":
+        if self.style in ("brief", "brief-first"):
             body, ctx = self._brief(w, job)
             conclusion = self._conclusion(w, item, ctx)
-            sentences = [_sentence(s) for s in body] + [conclusion]
+            verdict = [f"Answer: {item.answer}"] if self.style == "brief-first" else []
+            sentences = [_sentence(s) for s in verdict + body] + [conclusion]
             return Trace(" ".join(sentences), item.answer, sentences, w.used)
         if task == "TFA-combined":
             body, ctx = self._combined(w, job)
