@@ -216,15 +216,15 @@ def test_brief_first_opens_with_the_verdict_then_says_the_brief_reasoning(jobs: 
 
     first = make_teacher(TeacherConfig(backend="rules", model="rules-brief-first-v1", extra={"style": "brief-first"}))
     assert (first.style, first.model) == ("brief-first", "rules-brief-first-v1")
-    for job, brief in zip(jobs, brief_replies, strict=True):
-        text = first.generate_sync(job).text
+    texts = [first.generate_sync(job).text for job in jobs]
+    for job, brief, text in zip(jobs, brief_replies, texts, strict=True):
         verdict = f"<think>Answer: {job.item.answer}. "
         assert text.startswith(verdict), f"{job.item.id}: {text[:120]!r}"
         # the same seeded choices as the brief style: only the opening sentence is new
         assert text == verdict + brief.removeprefix("<think>"), job.item.id
         assert score_item(job.item, text, "strict").correct
-    samples = [make_sample(job.item, "", output=first.generate_sync(job).text, stages=list(job.stages), key=f"{i}")
-               for i, job in enumerate(jobs)]
+    samples = [make_sample(job.item, "", output=text, stages=list(job.stages), key=f"{i}")
+               for i, (job, text) in enumerate(zip(jobs, texts, strict=True))]
     result = filter_samples(samples, FilterConfig(dedup=False))
     assert not result.rejected, [(s.item_id, s.reasons) for s in result.rejected][:3]
 

@@ -62,6 +62,7 @@ def build_cot(bench_dir: str | Path, out_dir: str | Path, teacher_config, *, spl
     from tacreasoner.cot.pipeline import SAMPLES, generate, load_samples
     from tacreasoner.cot.prepare import prepare_jobs
     from tacreasoner.cot.prompts import build_prompt, load_prompts, prompt_version
+    from tacreasoner.cot.rules import BRIEF_STYLES
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -93,7 +94,7 @@ def build_cot(bench_dir: str | Path, out_dir: str | Path, teacher_config, *, spl
     everything = load_samples(out / SAMPLES)[0]
     samples = [s for s in everything if s.key in keys]
     # the rules teacher's brief styles repeat themselves by design: dedup would drop most short-task samples
-    brief = str(getattr(teacher, "style", "")).startswith("brief")
+    brief = getattr(teacher, "style", None) in BRIEF_STYLES
     result = filter_samples(samples, filter_config or FilterConfig(dedup=not brief))
     review = apply_saved_review(out, everything)
     seconds["filter"] = time.perf_counter() - t

@@ -42,13 +42,16 @@ from tacreasoner.tasks.schema import QAItem
 from tacreasoner.tasks.scoring import score_item
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
-__all__ = ["BANK_FILE", "STYLES", "RulesBank", "RulesBankError", "RulesTeacher", "Trace", "load_bank"]
+__all__ = ["BANK_FILE", "BRIEF_STYLES", "STYLES", "RulesBank", "RulesBankError", "RulesTeacher", "Trace", "load_bank"]
 
 MAX_TRIES = 8
 """Variants tried per sentence before falling back to a plainer one."""
 
 STYLES = {"full": "rules-v1", "brief": "rules-brief-v1", "brief-first": "rules-brief-first-v1"}
 """Writing style → the teacher's model id (part of every job's cache key, so styles never mix)."""
+
+BRIEF_STYLES = frozenset({"brief", "brief-first"})
+"""The short, number-free styles: they repeat by design (build-cot keeps their near-duplicates)."""
 
 _STAGE_NOUNS = {"press": "the press", "hold": "the hold", "slide": "the slide", "rotate": "the rotation",
                 "release": "the release"}
@@ -298,7 +301,7 @@ class RulesTeacher:
             raise ValueError(f"item {item.id!r}: TSA is zero-shot and never gets TouchCoT reasoning")
         w = _Writer(self.bank, item, self._rng(job))
         task = item.task
-        if self.style in ("brief", "brief-first"):
+        if self.style in BRIEF_STYLES:
             body, ctx = self._brief(w, job)
             conclusion = self._conclusion(w, item, ctx)
             verdict = [f"Answer: {item.answer}"] if self.style == "brief-first" else []
