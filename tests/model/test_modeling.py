@@ -113,9 +113,44 @@ def test_sensor_embedding_is_optional_and_changes_the_tokens_by_sensor() -> None
     assert tiny_model().tactile_encoder.sensor_embed is None
 
 
+def test_video_slots_tell_the_same_clip_apart_by_its_place_in_the_prompt() -> None:
+    model = tiny_model(question_conditioning=False, video_slots=3)
+    tpv = ENCODER["tokens_per_video"]
+    same = videos(1).repeat(2, 1, 1, 1, 1)  # one clip shown twice in one prompt
+    inputs = batch([prompt(2)])
+    places = (inputs["input_ids"][0] == TACTILE_ID).nonzero().flatten()
+
+    def first_and_second() -> tuple[torch.Tensor, torch.Tensor]:
+        with torch.no_grad():
+            embeds = model.embed_inputs(inputs["input_ids"], same, inputs["attention_mask"])[0]
+        return embeds[places[:tpv]], embeds[places[tpv:]]
+
+    first, second = first_and_second()
+    assert torch.equal(first, second)  # the slot vectors start at zero: no change until trained
+    torch.nn.init.normal_(model.projector.video_slot.shift)
+    first, second = first_and_second()
+    shift = model.projector.video_slot.shift
+    assert torch.allclose(second - first, (shift[1] - shift[0]).expand_as(first), atol=1e-5)
+    torch.nn.init.normal_(model.projector.video_slot.mix, std=0.1)
+    first_mixed, second_mixed = first_and_second()
+    assert not torch.allclose(second_mixed - first_mixed, second - first)  # each place has its own map
+    # a video's slot is its place in its own prompt, not in the batch
+    two = batch([prompt(1), prompt(1)])
+    with torch.no_grad():
+        embeds = model.embed_inputs(two["input_ids"], same, two["attention_mask"])
+    assert torch.equal(embeds[0, :tpv + 3], embeds[1, :tpv + 3])
+    with pytest.raises(ValueError, match=r"holds 4 videos but this model tells at most 3 apart \(encoder.video_slots"):
+        model.embed_inputs(batch([prompt(4)])["input_ids"], videos(4))
+    assert tiny_model().projector.video_slot is None
+    with pytest.raises(ValueError, match="video_slots must be a whole number"):
+        tiny_model(video_slots=-1)
+
+
 def test_save_then_load_gives_identical_logits(tmp_path) -> None:
-    model = tiny_model(sensor_embedding=True)
+    model = tiny_model(sensor_embedding=True, video_slots=2)
     _train_fusion_a_little(model)
+    torch.nn.init.normal_(model.projector.video_slot.shift)
+    torch.nn.init.normal_(model.projector.video_slot.mix, std=0.1)
     model.save_pretrained(tmp_path)
     loaded = TacReasonerForCausalLM.from_pretrained(tmp_path).eval()
     inputs = batch([prompt(2), prompt(1)])

@@ -20,7 +20,7 @@ NEW_IDS = [296, 297, 298, TACTILE_ID]
 
 
 def _model() -> TacReasonerForCausalLM:
-    model = tiny_model(sensor_embedding=True)
+    model = tiny_model(sensor_embedding=True, video_slots=2)
     model.config.new_token_ids = NEW_IDS
     torch.nn.init.normal_(model.tactile_encoder.fusion.ffn[-1].weight, std=0.1)  # let gradients flow everywhere
     return model.train()
@@ -47,6 +47,7 @@ def test_stage_one_trains_temporal_fusion_projector_and_new_token_rows_only() ->
     assert got - {embedding} and all(n.startswith(prefixes) for n in got - {embedding})
     expected = {n for n, _ in model.named_parameters() if n.startswith(prefixes)}
     assert expected - got == set(), f"never reached: {sorted(expected - got)}"
+    assert {"projector.video_slot.shift", "projector.video_slot.mix"} <= got
     assert not any(n.startswith("tactile_encoder.appearance.") for n in got)
     grad = model.get_input_embeddings().weight.grad
     rows = grad.abs().sum(1).nonzero().flatten().tolist()
@@ -70,6 +71,7 @@ def test_stage_two_trains_projector_lora_and_new_token_rows_only() -> None:
     _backward(peft_model)
     got = _with_grad(peft_model)
     assert got == set(names), f"missing {set(names) - got}, extra {got - set(names)}"
+    assert any("projector.modules_to_save.default.video_slot" in n for n in got)
     assert not any("tactile_encoder" in n for n in got)
 
 

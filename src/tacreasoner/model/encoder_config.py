@@ -45,6 +45,9 @@ class TactileEncoderConfig:
     """Tactile tokens handed to the LLM per video: 1 = CLS only (paper-faithful), n = CLS + n−1 pooled patch tokens."""
     sensor_embedding: bool = False
     sensor_types: tuple[str, ...] = DEFAULT_SENSOR_TYPES
+    video_slots: int = 0
+    """Learned "which video of the prompt" vectors added to the projected tokens (0 = none); ≥ the most
+    videos one prompt may hold (3 on DynTAC-Sim-Bench)."""
 
     def __post_init__(self) -> None:
         self.image_size = tuple(int(v) for v in self.image_size)  # type: ignore[assignment]
@@ -91,6 +94,8 @@ class TactileEncoderConfig:
         if self.tokens_per_video - 1 > self.num_patches:
             raise ValueError(f"encoder config: tokens_per_video {self.tokens_per_video} needs more patch tokens than "
                              f"the {self.num_patches} the ViT makes")
+        if not isinstance(self.video_slots, int) or isinstance(self.video_slots, bool) or self.video_slots < 0:
+            raise ValueError(f"encoder config: video_slots must be a whole number ≥ 0, got {self.video_slots!r}")
         if not self.sensor_types:
             raise ValueError("encoder config: sensor_types must not be empty")
 

@@ -58,8 +58,8 @@ class TacReasonerPreTrainedModel(PreTrainedModel):
 
     def _init_weights(self, module: nn.Module) -> None:
         if getattr(module, "zero_init", False):
-            nn.init.zeros_(module.weight)
-            nn.init.zeros_(module.bias)
+            for p in module.parameters(recurse=False):
+                nn.init.zeros_(p)
             return
         super()._init_weights(module)
 
@@ -76,7 +76,8 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
                 module._is_hf_initialized = True
         self.language_model = language_model
         self.tactile_encoder = DynamicTactileEncoder(config.encoder_config, config.text_hidden_size)
-        self.projector = TactileProjector(self.tactile_encoder.hidden_size, config.text_hidden_size)
+        self.projector = TactileProjector(self.tactile_encoder.hidden_size, config.text_hidden_size,
+                                          self.encoder_config.video_slots)
         self.post_init()
 
     # ------------------------------------------------------------------ HF plumbing
@@ -138,10 +139,13 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         return (text_embeds * weights).sum(1) / weights.sum(1).clamp(min=1.0)
 
     def encode_videos(self, pixel_values: torch.Tensor, question: torch.Tensor | None = None,
-                      sensor_ids: torch.Tensor | None = None, appearance: torch.Tensor | None = None) -> torch.Tensor:
-        """Videos → V×tokens_per_video×LLM-hidden embeddings (what replaces the placeholders)."""
+                      sensor_ids: torch.Tensor | None = None, appearance: torch.Tensor | None = None,
+                      slots: torch.Tensor | None = None) -> torch.Tensor:
+        """Videos → V×tokens_per_video×LLM-hidden embeddings (what replaces the placeholders).
+
+        ``slots``: each video's position in its own prompt (0 for the first), for ``encoder.video_slots``."""
         features = self.tactile_encoder(pixel_values, question, sensor_ids, appearance)
-        return self.projector(features)
+        return self.projector(features, slots)
 
     def embed_inputs(self, input_ids: torch.Tensor, pixel_values: torch.Tensor | None = None,
                      attention_mask: torch.Tensor | None = None, question_mask: torch.Tensor | None = None,
@@ -161,7 +165,9 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         if self.encoder_config.use_temporal and self.encoder_config.question_conditioning:
             per_sample_q = self.question_vectors(input_ids, text_embeds, attention_mask, question_mask)
             question = per_sample_q.repeat_interleave(per_sample, dim=0)
-        tactile = self.encode_videos(pixel_values.to(text_embeds.dtype), question, sensor_ids, appearance_tokens)
+        slots = torch.cat([torch.arange(int(n), device=input_ids.device) for n in per_sample])
+        tactile = self.encode_videos(pixel_values.to(text_embeds.dtype), question, sensor_ids, appearance_tokens,
+                                     slots)
         mask = (input_ids == self.config.tactile_token_id).unsqueeze(-1)
         return text_embeds.masked_scatter(mask, tactile.to(text_embeds.dtype).reshape(-1, text_embeds.shape[-1]))
 

@@ -19,7 +19,7 @@ from tacreasoner.model.appearance import AppearanceEncoder
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.temporal import TemporalBranch
 
-__all__ = ["CrossAttentionFusion", "DynamicTactileEncoder", "TactileProjector"]
+__all__ = ["CrossAttentionFusion", "DynamicTactileEncoder", "TactileProjector", "VideoSlots"]
 
 
 class CrossAttentionFusion(nn.Module):
@@ -43,17 +43,57 @@ class CrossAttentionFusion(nn.Module):
         return self.ffn(attended) + appearance
 
 
-class TactileProjector(nn.Module):
-    """E_V = W2·GELU(W1·F_enh + b1) + b2, into the LLM's embedding size."""
+class VideoSlots(nn.Module):
+    """Which video of the prompt (first, second, …) a token belongs to, written into the token itself.
 
-    def __init__(self, in_dim: int, out_dim: int) -> None:
+    Video k's tokens become ``x + x·M_k + s_k``. The shift ``s_k`` is a segment embedding (as in BERT). The map
+    ``M_k`` lets the average over several videos' tokens keep each video's features apart: a small LLM reads a
+    single video by attending to all tactile tokens at once, and with one shared projector that average blurs
+    two videos into one middle reading. Both start at zero, so a projector's output is unchanged until they are
+    trained. Measured on the quickstart: more sensitive to the videos' order, comparisons still not read
+    (docs/training.md, "Where the tiny model stands"); off by default.
+    """
+
+    def __init__(self, slots: int, dim: int) -> None:
+        super().__init__()
+        self.shift = nn.Parameter(torch.zeros(slots, dim))
+        self.mix = nn.Parameter(torch.zeros(slots, dim, dim))
+        self.zero_init = True  # read by the model's _init_weights too
+
+    @property
+    def slots(self) -> int:
+        return len(self.shift)
+
+    def forward(self, tokens: torch.Tensor, slots: torch.Tensor) -> torch.Tensor:
+        if len(slots) and int(slots.max()) >= self.slots:
+            raise ValueError(f"a prompt holds {int(slots.max()) + 1} videos but this model tells at most "
+                             f"{self.slots} apart (encoder.video_slots={self.slots}); ask about fewer videos at once "
+                             f"or train with more slots")
+        mixed = torch.zeros_like(tokens)
+        for k in slots.unique().tolist():
+            at = slots == k
+            mixed[at] = tokens[at] @ self.mix[k].to(tokens.dtype)
+        return tokens + mixed + self.shift[slots].unsqueeze(1).to(tokens.dtype)
+
+
+class TactileProjector(nn.Module):
+    """E_V = W2·GELU(W1·F_enh + b1) + b2, into the LLM's embedding size (+ :class:`VideoSlots` when asked)."""
+
+    def __init__(self, in_dim: int, out_dim: int, video_slots: int = 0) -> None:
         super().__init__()
         self.linear_1 = nn.Linear(in_dim, out_dim)
         self.act = nn.GELU()
         self.linear_2 = nn.Linear(out_dim, out_dim)
+        self.video_slot = VideoSlots(video_slots, out_dim) if video_slots else None
 
-    def forward(self, features: torch.Tensor) -> torch.Tensor:
-        return self.linear_2(self.act(self.linear_1(features)))
+    def forward(self, features: torch.Tensor, slots: torch.Tensor | None = None) -> torch.Tensor:
+        """``slots``: each video's place in its own prompt (V; 0 = first), read when the projector has slots."""
+        out = self.linear_2(self.act(self.linear_1(features)))
+        if self.video_slot is None:
+            return out
+        if slots is None:
+            slots = torch.zeros(len(features), dtype=torch.long, device=features.device)
+        return self.video_slot(out, slots)
 
 
 class DynamicTactileEncoder(nn.Module):
