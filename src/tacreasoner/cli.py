@@ -289,7 +289,7 @@ def quickstart(
     seed: Seed = 0,
     workers: Workers = None,
     overwrite: Overwrite = False,
-    seeds: Annotated[int, typer.Option("--seeds", help="Training seeds (Stage I + II each; about 7 min each on 2 "
+    seeds: Annotated[int, typer.Option("--seeds", help="Training seeds (Stage I + II each; about 9 min each on 2 "
                                                        "cores); the report gives mean ± std over them.")] = 1,
     train_model: Annotated[bool, typer.Option("--train/--no-train", help="Pre-train, train Stage I + II, evaluate "
                                                                           "and ask (off: data stages only).")] = True,

@@ -27,7 +27,7 @@ from tacreasoner.train.config import TrainConfig
 __all__ = ["QuickstartPaths", "distributed_config", "evaluate_seeds", "quickstart_config", "train_seed"]
 
 TINY_SETTINGS: dict[str, Any] = {
-    "stage1": {"steps": 900, "batch_size": 16, "lr": 1e-3, "warmup_ratio": 0.05},
+    "stage1": {"steps": 1800, "batch_size": 16, "lr": 1e-3, "warmup_ratio": 0.05},
     "stage2": {"steps": 1000, "batch_size": 8, "lr": 2e-3, "projector_lr": 1e-3, "warmup_ratio": 0.05},
     "lora": {"r": 128, "alpha": 256, "dropout": 0.05},
     "data": {"max_length": 768, "group_by_length": False},
