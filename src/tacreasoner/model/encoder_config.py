@@ -46,8 +46,8 @@ class TactileEncoderConfig:
     sensor_embedding: bool = False
     sensor_types: tuple[str, ...] = DEFAULT_SENSOR_TYPES
     video_slots: int = 0
-    """Learned "which video of the prompt" vectors added to the projected tokens (0 = none); ≥ the most
-    videos one prompt may hold (3 on DynTAC-Sim-Bench)."""
+    """Places told apart by a learned vector and linear map on each video's projected tokens (``VideoSlots``;
+    0 = none); at least the most videos one prompt may hold (3 on DynTAC-Sim-Bench)."""
 
     def __post_init__(self) -> None:
         self.image_size = tuple(int(v) for v in self.image_size)  # type: ignore[assignment]
