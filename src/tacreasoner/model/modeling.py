@@ -165,7 +165,10 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         if self.encoder_config.use_temporal and self.encoder_config.question_conditioning:
             per_sample_q = self.question_vectors(input_ids, text_embeds, attention_mask, question_mask)
             question = per_sample_q.repeat_interleave(per_sample, dim=0)
-        slots = torch.cat([torch.arange(int(n), device=input_ids.device) for n in per_sample])
+        slots = None
+        if self.projector.video_slot is not None:  # each video's place in its own prompt: 0, 1, … per sample
+            first = (per_sample.cumsum(0) - per_sample).repeat_interleave(per_sample)
+            slots = torch.arange(n_videos, device=input_ids.device) - first
         tactile = self.encode_videos(pixel_values.to(text_embeds.dtype), question, sensor_ids, appearance_tokens,
                                      slots)
         mask = (input_ids == self.config.tactile_token_id).unsqueeze(-1)

@@ -65,8 +65,9 @@ class VideoSlots(nn.Module):
         return len(self.shift)
 
     def forward(self, tokens: torch.Tensor, slots: torch.Tensor) -> torch.Tensor:
-        if len(slots) and int(slots.max()) >= self.slots:
-            raise ValueError(f"a prompt holds {int(slots.max()) + 1} videos but this model tells at most "
+        most = int(slots.max()) + 1 if len(slots) else 0
+        if most > self.slots:
+            raise ValueError(f"a prompt holds {most} videos but this model tells at most "
                              f"{self.slots} apart (encoder.video_slots={self.slots}); ask about fewer videos at once "
                              f"or train with more slots")
         mixed = torch.zeros_like(tokens)
