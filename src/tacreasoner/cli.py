@@ -848,6 +848,12 @@ def pretrain_llm_cmd(
                                                                   "other work).", show_default=False)] = None,
     evaluate: Annotated[bool, typer.Option("--eval/--no-eval", help="Answer the held-out knowledge questions "
                                                                     "afterwards.")] = True,
+    rehearse: Annotated[Path | None, typer.Option(
+        "--rehearse", help="A TouchCoT training file: its multi-video items join the corpus as text, each video "
+                           "written as its feel after its label (needs --bench; docs/training.md).",
+        show_default=False)] = None,
+    bench: Annotated[Path | None, typer.Option("--bench", help="The benchmark directory --rehearse was built from.",
+                                               show_default=False)] = None,
 ) -> None:
     """Pre-train the tiny LLM from scratch (BPE tokenizer + Qwen2) on the commonsense corpus; text only, resumable."""
     _needs_train_extra("pretrain-llm")
@@ -856,9 +862,12 @@ def pretrain_llm_cmd(
     from tacreasoner.train.pretrain_llm import knowledge_check, pretrain_llm
 
     _at_least_one("--threads", threads)
+    if (rehearse is None) != (bench is None):
+        raise typer.BadParameter("--rehearse and --bench go together: the TouchCoT file and its benchmark")
     hf_logging.disable_progress_bar()
     model_dir = pretrain_llm(out, steps=steps, batch_size=batch_size, seq_len=seq_len, lr=lr, seed=seed,
-                             resume=resume, vocab_size=vocab_size, threads=threads)
+                             resume=resume, vocab_size=vocab_size, threads=threads,
+                             rehearsal={"touchcot": rehearse, "bench": bench} if rehearse else None)
     info = json.loads((model_dir / "pretrain.json").read_text(encoding="utf-8"))
     console.print(f"model + tokenizer: {model_dir} (AutoModelForCausalLM / AutoTokenizer.from_pretrained); "
                   f"{info['parameters'] / 1e6:.1f} M parameters, vocabulary {info['vocab_size']}")

@@ -205,7 +205,7 @@ def test_brief_style_has_its_own_model_id_and_rejects_unknown_styles(jobs: list[
     assert (brief.style, brief.model) == ("brief", "rules-brief-v1")
     assert brief.generate_sync(jobs[0]).model == "rules-brief-v1"
     assert make_teacher(TeacherConfig(backend="rules", model="rules-v1")).model == "rules-v1"
-    with pytest.raises(ValueError, match="style must be one of full, brief, brief-first, got 'short'"):
+    with pytest.raises(ValueError, match="style must be one of full, brief, brief-first, brief-levels, got 'short'"):
         RulesTeacher(style="short")
 
 
@@ -223,6 +223,41 @@ def test_brief_first_opens_with_the_verdict_then_says_the_brief_reasoning(jobs: 
         # the same seeded choices as the brief style: only the opening sentence is new
         assert text == verdict + brief.removeprefix("<think>"), job.item.id
         assert score_item(job.item, text, "strict").correct
+    samples = [make_sample(job.item, "", output=text, stages=list(job.stages), key=f"{i}")
+               for i, (job, text) in enumerate(zip(jobs, texts, strict=True))]
+    result = filter_samples(samples, FilterConfig(dedup=False))
+    assert not result.rejected, [(s.item_id, s.reasons) for s in result.rejected][:3]
+
+
+def test_brief_levels_reads_each_video_with_its_level_then_decides_comparisons_by_the_number_rule(
+        jobs: list[CoTJob], brief_replies: list[str]) -> None:
+    from tacreasoner.cot.backends import TeacherConfig, make_teacher
+    from tacreasoner.cot.filter import FilterConfig, filter_samples
+
+    levels = make_teacher(TeacherConfig(backend="rules", model="rules-brief-levels-v1",
+                                        extra={"style": "brief-levels"}))
+    assert (levels.style, levels.model) == ("brief-levels", "rules-brief-levels-v1")
+    texts = [levels.generate_sync(job).text for job in jobs]
+    compared = 0
+    for job, brief, text in zip(jobs, brief_replies, texts, strict=True):
+        item = job.item
+        assert score_item(item, text, "strict").correct, (item.id, text)
+        if item.task not in ("SFD", "SOI"):  # everything else is brief-first
+            assert text == f"<think>Answer: {item.answer}. " + brief.removeprefix("<think>"), item.id
+            continue
+        compared += 1
+        think = text.split("</think>")[0]
+        assert not think.startswith("<think>Answer:")  # readings come before any verdict
+        said = [int(n) for n in re.findall(r"\(level (\d)\)", think)]
+        assert said == item.meta["ranks"], (item.id, think)  # every video, in order, with its true level
+        rule = think.split("level;")[-1]
+        if "index" in item.gold:  # which-of: the rule names the answer's video
+            assert f"Video {item.gold['index'] + 1}" in rule, (item.id, think)
+        else:
+            assert f"so {item.answer}:" in rule, (item.id, think)
+        way = "higher" if item.gold["direction"] in ("more", "most") else "lower"
+        assert f"a {way} level" in think or f"{'highest' if way == 'higher' else 'lowest'} level" in think
+    assert compared > 10
     samples = [make_sample(job.item, "", output=text, stages=list(job.stages), key=f"{i}")
                for i, (job, text) in enumerate(zip(jobs, texts, strict=True))]
     result = filter_samples(samples, FilterConfig(dedup=False))

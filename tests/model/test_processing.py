@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -73,6 +75,24 @@ def test_collate_pads_right_for_training_and_concatenates_videos(processor) -> N
     short = len(a["input_ids"])
     assert batch["attention_mask"][0, short:].sum() == 0
     assert (batch["labels"][0, short:] == IGNORE_INDEX).all()
+
+
+def test_video_labels_name_each_video_of_a_multi_video_prompt_only(processor) -> None:
+    labelled = TacReasonerProcessor.for_encoder(processor.tokenizer, ENCODER.replace(video_labels=True))
+    pads = TACTILE_PAD * 3
+    assert labelled.expand("<tactile>\n<tactile>\nWhich is harder?") == \
+        f"Video 1: {pads}\nVideo 2: {pads}\nWhich is harder?"
+    assert labelled.expand("Is <tactile> hard?") == processor.expand("Is <tactile> hard?") == f"Is {pads} hard?"
+    assert processor.expand("<tactile> or <tactile>?") == f"{pads} or {pads}?"
+    given = "Video 1: <tactile>\nVideo 2: <tactile>\nMatch them."  # a question that names them already
+    assert labelled.expand(given) == f"Video 1: {pads}\nVideo 2: {pads}\nMatch them."
+    ex = labelled.example("<tactile> or <tactile>?", "<answer>first</answer>", [_clip(0), _clip(1)])
+    question = [i for i, m in zip(ex["input_ids"], ex["question_mask"], strict=True) if m]
+    assert labelled.tokenizer.decode(question).replace(" ", "") == "Video1:orVideo2:?"  # labels are question text
+    labelled.save_pretrained(labelled_dir := Path(tempfile.mkdtemp()))
+    assert TacReasonerProcessor.from_pretrained(labelled_dir).video_labels is True
+    with pytest.raises(ValueError, match="video_labels must be true or false"):
+        ENCODER.replace(video_labels="yes")
 
 
 def test_save_and_load_round_trip(processor, tmp_path) -> None:

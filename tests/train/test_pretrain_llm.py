@@ -121,6 +121,8 @@ def test_cli_defaults_match_the_library_and_a_short_run_works(tmp_path: Path) ->
     assert "model + tokenizer:" in result.output and (out / "model.safetensors").is_file()
     again = CliRunner().invoke(app, ["pretrain-llm", "--out", str(out), "--steps", "2", "--batch-size", "2"])
     assert again.exit_code == 2 and "already holds a pre-training run" in again.output
+    alone = CliRunner().invoke(app, ["pretrain-llm", "--out", str(tmp_path / "r"), "--rehearse", str(out)])
+    assert alone.exit_code == 2 and "--rehearse and --bench go together" in alone.output
 
 
 def test_untrained_vocabulary_is_recorded_and_becomes_new_token_rows(finished: Path) -> None:

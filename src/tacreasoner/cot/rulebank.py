@@ -62,6 +62,9 @@ _SECTION_SLOTS: dict[str, frozenset[str]] = {
     "descriptors": frozenset(),
     "brief_stages": frozenset({"stages"}),
     "brief_feel": frozenset({"n", "descriptor"}),
+    "level_feel": frozenset({"n", "descriptor", "level"}),
+    "level_rule": frozenset({"direction", "Direction", "attribute", "way", "lx", "ly", "rel", "extreme", "best",
+                             "n", "ordinal", "yes_no", "verdict"}),
     "brief_profile": frozenset({"intro", "profile"}),
     "brief_match": frozenset({"n", "profile", "name", "letter"}),
     "brief_ocse": frozenset(),
@@ -70,10 +73,12 @@ _REQUIRED_SLOTS = {"connectors": frozenset({"reading"}), "context_connectors": f
                    "value_styles": frozenset({"value", "n"}), "evidence_clause": frozenset({"cue_label", "value"}),
                    "tipping": frozenset({"cue_label", "values"}),
                    # brief-style templates need every slot they allow
-                   **{s: _SECTION_SLOTS[s] for s in ("brief_stages", "brief_feel", "brief_profile", "brief_match")}}
+                   **{s: _SECTION_SLOTS[s] for s in ("brief_stages", "brief_feel", "brief_profile", "brief_match",
+                                                             "level_feel")}}
 _DATA_SECTIONS = frozenset({"version", "typical", "evidence", "stage_cue", "ocse_checks"})
 CONCLUSION_KEYS = ("TFA", "TFA-combined", "SFD-which", "SFD-yes", "SFD-no", "SOI", "OSC", "RFOR", "OCSE")
 OPENER_KEYS = ("TFA", "TFA-combined", "SFD", "SOI", "OSC", "RFOR", "OCSE")
+LEVEL_RULE_KEYS = ("SFD-which", "SFD-yesno", "SOI")
 
 
 @dataclass(frozen=True)
@@ -191,7 +196,8 @@ def _check_data(bank: RulesBank) -> None:
                     and check[1] in ("<", ">") and isinstance(check[2], (int, float))):
                 raise RulesBankError(f"{bank.where('ocse_checks', state, i)}: expected [cue, '<'|'>', number], "
                                      f"got {check!r}")
-    for section, keys in (("conclusions", CONCLUSION_KEYS), ("openers", OPENER_KEYS), ("verdict", ("SFD", "SOI"))):
+    for section, keys in (("conclusions", CONCLUSION_KEYS), ("openers", OPENER_KEYS), ("verdict", ("SFD", "SOI")),
+                          ("level_rule", LEVEL_RULE_KEYS)):
         lacking = [k for k in keys if k not in d[section]]
         if lacking:
             raise RulesBankError(f"{bank.where(section)}: missing entries for {lacking}")

@@ -19,7 +19,14 @@ readings state the gold level's percept per stage without checking each cue agai
 ``style="brief-first"`` is the brief style opened by the verdict (``<think>Answer: moderately deformable.
 In the pressing stage, …``): the token that needs the tactile input comes right after the question, where
 Stage I's plain answers taught the model to read it; the rest of the reasoning explains that verdict. It is
-what the quickstart trains on (docs/training.md, "Where the tiny model stands").
+what the quickstart trained on until comparisons got their own form below.
+
+``style="brief-levels"`` is brief-first except for SFD and SOI, which read every video first, with its level
+number, and then decide by the number rule the commonsense corpus teaches (``Over the press and the hold,
+Video 1 feels squashy (level 0) and Video 2 feels rigid (level 2). More hardness means a higher level; 0 is
+lower than 2, so it is Video 2: the second object``): a comparison's answer follows from readings the model
+has already written, not from a verdict it must give before reading any video. It is what the quickstart
+trains on (docs/training.md).
 
 Every sentence is checked against the gold before it is used (no other level phrase, verdict or
 contact state), and the conclusion must score as correct under the lenient scorer, so the reasoning
@@ -47,14 +54,18 @@ __all__ = ["BANK_FILE", "BRIEF_STYLES", "STYLES", "RulesBank", "RulesBankError",
 MAX_TRIES = 8
 """Variants tried per sentence before falling back to a plainer one."""
 
-STYLES = {"full": "rules-v1", "brief": "rules-brief-v1", "brief-first": "rules-brief-first-v1"}
+STYLES = {"full": "rules-v1", "brief": "rules-brief-v1", "brief-first": "rules-brief-first-v1",
+          "brief-levels": "rules-brief-levels-v1"}
 """Writing style → the teacher's model id (part of every job's cache key, so styles never mix)."""
 
-BRIEF_STYLES = frozenset({"brief", "brief-first"})
+BRIEF_STYLES = frozenset({"brief", "brief-first", "brief-levels"})
 """The short, number-free styles: they repeat by design (build-cot keeps their near-duplicates)."""
 
 _STAGE_NOUNS = {"press": "the press", "hold": "the hold", "slide": "the slide", "rotate": "the rotation",
                 "release": "the release"}
+
+
+_ORDINALS = ("first", "second", "third")
 
 
 def _join(words: Sequence[str]) -> str:
@@ -302,9 +313,13 @@ class RulesTeacher:
         w = _Writer(self.bank, item, self._rng(job))
         task = item.task
         if self.style in BRIEF_STYLES:
+            if self.style == "brief-levels" and task in ("SFD", "SOI"):
+                levelled = self._levels_compare(w, job)
+                if levelled is not None:
+                    return Trace(" ".join(levelled), item.answer, levelled, w.used)
             body, ctx = self._brief(w, job)
             conclusion = self._conclusion(w, item, ctx)
-            verdict = [f"Answer: {item.answer}"] if self.style == "brief-first" else []
+            verdict = [f"Answer: {item.answer}"] if self.style in ("brief-first", "brief-levels") else []
             sentences = [_sentence(s) for s in verdict + body] + [conclusion]
             return Trace(" ".join(sentences), item.answer, sentences, w.used)
         if task == "TFA-combined":
@@ -521,6 +536,35 @@ class RulesTeacher:
             fallback = "Video {n} feels {descriptor}".format(**slots)
             feels.append(w.pick(("brief_feel",), slots, f"video{v + 1}", w.ok) or fallback)
         return [f"{self._brief_intro(w, job)}, {_join(feels)}"], ctx
+
+    def _levels_compare(self, w: _Writer, job: CoTJob) -> list[str] | None:
+        """Each video's feel with its level, then the number rule that picks the answer (None without ranks)."""
+        item = job.item
+        ranks = _ranks(item, len(job.videos), int)
+        if ranks is None:
+            return None
+        gold, attribute = item.gold, item.gold["attribute"]
+        feels = []
+        for v, rank in enumerate(ranks):
+            slots = {"n": str(v + 1), "descriptor": w.word("descriptors", attribute, rank), "level": str(rank)}
+            feels.append(w.pick(("level_feel",), slots, f"video{v + 1}", w.ok)
+                         or "Video {n} feels {descriptor} (level {level})".format(**slots))
+        higher = gold["direction"] in ("more", "most")
+        winner = gold["index"] if "index" in gold else (0 if gold["value"] else 1)
+        slots = {"direction": gold["direction"], "Direction": gold["direction"].capitalize(), "attribute": attribute,
+                 "way": "higher" if higher else "lower", "n": str(winner + 1), "ordinal": _ORDINALS[winner]}
+        if item.task == "SOI":
+            key = "SOI"
+            slots |= {"extreme": "highest" if higher else "lowest", "best": str(ranks[winner])}
+        else:
+            x, y = ranks
+            key = "SFD-which" if gold["kind"] == "which" else "SFD-yesno"
+            slots |= {"lx": str(x), "ly": str(y), "rel": "higher" if x > y else "lower",
+                      "yes_no": item.answer, "verdict": "has" if gold.get("value") else "does not have"}
+        rule = w.pick(("level_rule", key), slots, "rule", lambda text: _concludes(item, _sentence(text)))
+        if rule is None:
+            return None
+        return [_sentence(f"{self._brief_intro(w, job)}, {_join(feels)}"), _sentence(rule)]
 
     def _brief_osc(self, w: _Writer, job: CoTJob) -> tuple[list[str], dict[str, str]]:
         item = job.item

@@ -48,6 +48,9 @@ class TactileEncoderConfig:
     video_slots: int = 0
     """Places told apart by a learned vector and linear map on each video's projected tokens (``VideoSlots``;
     0 = none); at least the most videos one prompt may hold (3 on DynTAC-Sim-Bench)."""
+    video_labels: bool = False
+    """Prompts holding several videos name each before its tokens ("Video 2: "), as the reasoning names them: the
+    LLM can then find a video's tokens by its name (the processor's job; kept here so a saved model keeps it)."""
 
     def __post_init__(self) -> None:
         self.image_size = tuple(int(v) for v in self.image_size)  # type: ignore[assignment]
@@ -96,6 +99,8 @@ class TactileEncoderConfig:
                              f"the {self.num_patches} the ViT makes")
         if not isinstance(self.video_slots, int) or isinstance(self.video_slots, bool) or self.video_slots < 0:
             raise ValueError(f"encoder config: video_slots must be a whole number ≥ 0, got {self.video_slots!r}")
+        if not isinstance(self.video_labels, bool):
+            raise ValueError(f"encoder config: video_labels must be true or false, got {self.video_labels!r}")
         if not self.sensor_types:
             raise ValueError("encoder config: sensor_types must not be empty")
 

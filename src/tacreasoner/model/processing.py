@@ -38,6 +38,23 @@ IGNORE_INDEX = -100
 PROCESSOR_CONFIG_NAME = "processor_config.json"
 
 
+def video_label(n: int) -> str:
+    """What ``video_labels`` puts before the ``n``-th video (from 1): the name TouchCoT reasoning uses for it."""
+    return f"Video {n}: "
+
+
+def label_videos(text: str, fills: Sequence[str]) -> str:
+    """Each placeholder → its label + ``fills[k]``; a label the question already gives is not repeated."""
+    parts = text.split(PLACEHOLDER)
+    if len(parts) - 1 != len(fills):
+        raise ValueError(f"{len(parts) - 1} {PLACEHOLDER} placeholder(s) but {len(fills)} fill(s)")
+    out = parts[0]
+    for n, (fill, part) in enumerate(zip(fills, parts[1:], strict=True), start=1):
+        label = video_label(n)
+        out += ("" if out.endswith(label) else label) + fill + part
+    return out
+
+
 @dataclass
 class _Encoded:
     input_ids: list[int]
@@ -50,7 +67,7 @@ class TacReasonerProcessor:
 
     def __init__(self, tokenizer: PreTrainedTokenizerBase, video_config: VideoProcessingConfig | None = None, *,
                  tokens_per_video: int = 5, sensor_types: Sequence[str] = DEFAULT_SENSOR_TYPES,
-                 system_prompt: str | None = None) -> None:
+                 system_prompt: str | None = None, video_labels: bool = False) -> None:
         if tokens_per_video < 1:
             raise ValueError(f"tokens_per_video must be ≥ 1, got {tokens_per_video}")
         self.tokenizer = tokenizer
@@ -58,6 +75,7 @@ class TacReasonerProcessor:
         self.tokens_per_video = int(tokens_per_video)
         self.sensor_types = tuple(sensor_types)
         self.system_prompt = system_prompt
+        self.video_labels = bool(video_labels)
         self.tactile_token_id = self._single_token_id(TACTILE_PAD)
         if getattr(tokenizer, "chat_template", None) is None:
             raise ValueError("the tokenizer has no chat template: "
@@ -70,7 +88,7 @@ class TacReasonerProcessor:
         video = VideoProcessingConfig(num_frames=encoder.num_frames, image_size=encoder.image_size,
                                       **kwargs.pop("video", {}))
         return cls(tokenizer, video, tokens_per_video=encoder.tokens_per_video, sensor_types=encoder.sensor_types,
-                   **kwargs)
+                   video_labels=encoder.video_labels, **kwargs)
 
     def _single_token_id(self, token: str) -> int:
         ids = self.tokenizer.convert_tokens_to_ids([token])
@@ -101,7 +119,13 @@ class TacReasonerProcessor:
 
     # ------------------------------------------------------------------ text
     def expand(self, text: str) -> str:
-        return text.replace(PLACEHOLDER, TACTILE_PAD * self.tokens_per_video)
+        """Each placeholder → its tactile tokens; with ``video_labels``, prompts holding several videos also
+        say which is which ("Video 2: " before the second), the names the reasoning refers to them by."""
+        pads = TACTILE_PAD * self.tokens_per_video
+        n = text.count(PLACEHOLDER)
+        if not self.video_labels or n < 2:
+            return text.replace(PLACEHOLDER, pads)
+        return label_videos(text, [pads] * n)
 
     def messages(self, question: str, answer: str | None = None, system: str | None = None) -> list[dict[str, str]]:
         out = []
@@ -222,7 +246,7 @@ class TacReasonerProcessor:
     def to_dict(self) -> dict[str, Any]:
         return {"processor_class": type(self).__name__, "video": self.video_config.to_dict(),
                 "tokens_per_video": self.tokens_per_video, "sensor_types": list(self.sensor_types),
-                "system_prompt": self.system_prompt}
+                "system_prompt": self.system_prompt, "video_labels": self.video_labels}
 
     def save_pretrained(self, directory: str | os.PathLike[str], **kwargs: Any) -> None:
         directory = Path(directory)
@@ -235,10 +259,11 @@ class TacReasonerProcessor:
         directory = Path(directory)
         path = directory / PROCESSOR_CONFIG_NAME
         data = read_json_object(path, "a processor config written by TacReasonerProcessor.save_pretrained")
-        known = {"processor_class", "video", "tokens_per_video", "sensor_types", "system_prompt"}
+        known = {"processor_class", "video", "tokens_per_video", "sensor_types", "system_prompt", "video_labels"}
         if unknown := sorted(set(data) - known):
             raise ValueError(f"{path}: unknown keys {unknown}; known: {', '.join(sorted(known))}")
         tokenizer = AutoTokenizer.from_pretrained(directory)
         return cls(tokenizer, VideoProcessingConfig.from_dict(data.get("video")),
                    tokens_per_video=int(data.get("tokens_per_video", 5)),
-                   sensor_types=data.get("sensor_types", DEFAULT_SENSOR_TYPES), system_prompt=data.get("system_prompt"))
+                   sensor_types=data.get("sensor_types", DEFAULT_SENSOR_TYPES), system_prompt=data.get("system_prompt"),
+                   video_labels=bool(data.get("video_labels", False)))

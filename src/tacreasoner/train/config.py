@@ -73,6 +73,9 @@ class DataSettings:
     """TouchCoT training JSONL (``build-cot``) for Stage II."""
     stage2_data: str = "touchcot"
     """touchcot | plain (gold answers without reasoning, from the benchmark's train split)."""
+    stage1_video_readings: bool = False
+    """Stage I also asks how one video of a comparison's two or three feels ("How does Video 2 feel in hardness?"),
+    so the projector learns tokens the LLM finds by their label (``encoder.video_labels``; docs/training.md)."""
     tasks: list[str] | None = None
     """Restrict training items to these tasks (default: all in the files; TSA is never trained on)."""
     max_length: int = 768

@@ -107,13 +107,29 @@ def _answer_only(item: QAItem) -> str:
     return f"<answer>{item.answer}</answer>"
 
 
+def _video_readings(items: Sequence[QAItem], root: Path) -> list[TrainExample]:
+    from tacreasoner.train.rehearsal import reading_question, reading_word, video_reading_items
+
+    out = []
+    for item, v in video_reading_items(items):
+        attribute, ranks = item.meta["attribute"], item.meta["ranks"]
+        out.append(TrainExample(key=f"{item.id}#video{v + 1}", task=f"{item.task}-reading",
+                                question=reading_question(len(ranks), v + 1, attribute),
+                                target=f"<answer>{reading_word(attribute, ranks[v])}</answer>",
+                                videos=tuple(video_key(r, root, f"item {item.id!r}") for r in item.videos)))
+    return out
+
+
 def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None = None, stage2_data: str = "touchcot",
-                  tasks: Sequence[str] | None = None, max_items: int | None = None) -> list[TrainExample]:
+                  tasks: Sequence[str] | None = None, max_items: int | None = None,
+                  video_readings: bool = False) -> list[TrainExample]:
     """The examples of ``stage`` (see the module doc); TSA is never among them."""
     bench = Path(bench)
     root, items = _bench_items(bench)
     if stage == 1:
         examples = _from_items([i for i in items if i.task in STAGE1_TASKS], root, _answer_only)
+        if video_readings:
+            examples += _video_readings(items, root)
     elif stage2_data == "plain":
         examples = _from_items([i for i in items if i.task != "TSA"], root, _answer_only)
     else:

@@ -21,7 +21,7 @@ import math
 import random
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -67,6 +67,9 @@ class PretrainSettings:
     """Overrides of ``tiny_qwen2_config`` (e.g. ``{"num_hidden_layers": 2}``)."""
     corpus: dict[str, Any] = field(default_factory=dict)
     """Keyword arguments of ``build_corpus`` besides seed and holdout (e.g. ``{"n_compare": 1000}``)."""
+    rehearsal: dict[str, Any] = field(default_factory=dict)
+    """TouchCoT's multi-video items as text (``tacreasoner.train.rehearsal``): ``{"touchcot": training file,
+    "bench": its benchmark directory, "passes": wordings per item (default 2)}``; empty = none."""
 
     def check(self) -> None:
         for name in ("steps", "batch_size", "seq_len", "vocab_size", "checkpoint_every"):
@@ -78,6 +81,16 @@ class PretrainSettings:
             raise ValueError("warmup_steps and weight_decay must be >= 0")
         if self.seq_len < 64:
             raise ValueError(f"seq_len must be at least 64 (one dialogue must fit), got {self.seq_len}")
+        if self.rehearsal:
+            if unknown := sorted(set(self.rehearsal) - {"touchcot", "bench", "passes"}):
+                raise ValueError(f"rehearsal: unknown keys {unknown}; known: bench, passes, touchcot")
+            passes = self.rehearsal.get("passes", 2)
+            if not isinstance(passes, int) or isinstance(passes, bool) or passes < 1:
+                raise ValueError(f"rehearsal.passes must be a whole number ≥ 1, got {passes!r}")
+            for key in ("touchcot", "bench"):
+                if not self.rehearsal.get(key) or not Path(self.rehearsal[key]).exists():
+                    raise ValueError(f"rehearsal.{key}: {self.rehearsal.get(key)!r} does not exist (a TouchCoT "
+                                     f"training file and the benchmark directory it was built from are needed)")
 
 
 def bf16_supported() -> bool:
@@ -278,6 +291,7 @@ def pretrain_llm(out_dir: str | Path, *, steps: int = PretrainSettings.steps,
                  warmup_steps: int = PretrainSettings.warmup_steps,
                  holdout_fraction: float = PretrainSettings.holdout_fraction, bf16: bool | None = None,
                  model_overrides: dict[str, Any] | None = None, corpus_options: dict[str, Any] | None = None,
+                 rehearsal: dict[str, Any] | None = None,
                  log_every: int = 10,
                  threads: int | None = None, stop_after: int | None = None,
                  on_log: Callable[[dict[str, Any]], None] | None = None) -> Path:
@@ -287,12 +301,13 @@ def pretrain_llm(out_dir: str | Path, *, steps: int = PretrainSettings.steps,
     tokenizer. ``bf16=None`` uses bf16 autocast when the CPU has native bf16; ``threads=None`` picks
     :func:`~tacreasoner.train.threads.free_threads` (the global torch setting is restored afterwards).
     ``stop_after`` ends the run early after that many steps *without* the final save (for tests of
-    interrupted runs).
+    interrupted runs). ``rehearsal`` adds TouchCoT's multi-video items as text (:class:`PretrainSettings`).
     """
     settings = PretrainSettings(steps=steps, batch_size=batch_size, seq_len=seq_len, lr=lr, seed=seed,
                                 vocab_size=vocab_size, warmup_steps=warmup_steps, holdout_fraction=holdout_fraction,
                                 checkpoint_every=checkpoint_every, bf16=bf16_supported() if bf16 is None else bf16,
-                                model=dict(model_overrides or {}), corpus=dict(corpus_options or {}))
+                                model=dict(model_overrides or {}), corpus=dict(corpus_options or {}),
+                                rehearsal={k: v if k == "passes" else str(v) for k, v in (rehearsal or {}).items()})
     settings.check()
     if threads is not None and threads < 1:
         raise ValueError(f"threads must be at least 1, got {threads}")
@@ -318,11 +333,19 @@ def _train(out: Path, settings: PretrainSettings, *, resume: bool, progress: boo
     started = time.perf_counter()
 
     corpus = build_corpus(seed=seed, holdout_fraction=settings.holdout_fraction, **settings.corpus)
+    rehearsal = None
+    if settings.rehearsal:
+        from tacreasoner.train.rehearsal import rehearsal_dialogues
+
+        rehearsal = rehearsal_dialogues(settings.rehearsal["touchcot"], settings.rehearsal["bench"],
+                                        passes=settings.rehearsal.get("passes", 2), seed=seed)
+        corpus = replace(corpus, dialogues=[*corpus.dialogues, *rehearsal.dialogues])
     tokenizer = _load_tokenizer_or_train(out, corpus, settings.vocab_size, resume)
     examples, truncated = _tokenise(corpus, tokenizer, settings.seq_len)
     pad_id, eos_id = tokenizer.pad_token_id, tokenizer.eos_token_id
     n_tokens = sum(len(e.ids) for e in examples)
     write_json(out / SETTINGS_FILE, {"settings": asdict(settings), "corpus": corpus.stats(),
+                                       "rehearsal": rehearsal.stats() if rehearsal else None,
                                        "corpus_tokens": n_tokens, "truncated_examples": truncated,
                                        "vocab_size": len(tokenizer)})
 
