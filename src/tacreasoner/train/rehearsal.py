@@ -4,8 +4,10 @@ The tiny LLM, trained from scratch, reads one video well but, given two or three
 question's wording (benchmarks/results/video_order.md): nothing taught it to find one video's tokens
 by the name the reasoning gives it ("Video 2"). A rehearsal item is a TouchCoT training item with
 each video written out as words after its label ("Video 2: rigid"), answered with the item's own
-reasoning. Pre-training on them teaches the lookup by label and the comparison on text; Stage II
-then swaps the words for tactile tokens, behind the same labels (``encoder.video_labels``).
+reasoning; reading items ask for one video's words by its label ("How does Video 2 feel in hardness?").
+Pre-training on them teaches the lookup by label and the comparison on text; Stage II then swaps the
+words for tactile tokens, behind the same labels (``encoder.video_labels``). Measured in
+docs/training.md ("Where the tiny model stands"): it works on text, not yet on tactile tokens.
 
 Only training items are rehearsed, and the words are the teacher's descriptors of each video's
 ground-truth level (the levels the TouchCoT reasoning already states), so nothing of the test split
