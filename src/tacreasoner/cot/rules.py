@@ -19,14 +19,14 @@ readings state the gold level's percept per stage without checking each cue agai
 ``style="brief-first"`` is the brief style opened by the verdict (``<think>Answer: moderately deformable.
 In the pressing stage, …``): the token that needs the tactile input comes right after the question, where
 Stage I's plain answers taught the model to read it; the rest of the reasoning explains that verdict. It is
-what the quickstart trained on until comparisons got their own form below.
+what the quickstart trains on (docs/training.md, "Where the tiny model stands").
 
 ``style="brief-levels"`` is brief-first except for SFD and SOI, which read every video first, with its level
 number, and then decide by the number rule the commonsense corpus teaches (``Over the press and the hold,
 Video 1 feels squashy (level 0) and Video 2 feels rigid (level 2). More hardness means a higher level; 0 is
 lower than 2, so it is Video 2: the second object``): a comparison's answer follows from readings the model
-has already written, not from a verdict it must give before reading any video. It is what the quickstart
-trains on (docs/training.md).
+has already written, not from a verdict it must give before reading any video. Off by default: on tactile
+tokens the tiny model's per-video readings are still too poor for it to help (docs/training.md).
 
 Every sentence is checked against the gold before it is used (no other level phrase, verdict or
 contact state), and the conclusion must score as correct under the lenient scorer, so the reasoning
@@ -59,7 +59,8 @@ STYLES = {"full": "rules-v1", "brief": "rules-brief-v1", "brief-first": "rules-b
 """Writing style → the teacher's model id (part of every job's cache key, so styles never mix)."""
 
 BRIEF_STYLES = frozenset({"brief", "brief-first", "brief-levels"})
-"""The short, number-free styles: they repeat by design (build-cot keeps their near-duplicates)."""
+"""The short styles (number-free, but for brief-levels' level numbers): they repeat by design (build-cot keeps
+their near-duplicates)."""
 
 _STAGE_NOUNS = {"press": "the press", "hold": "the hold", "slide": "the slide", "rotate": "the rotation",
                 "release": "the release"}
@@ -247,19 +248,24 @@ def _supports(bank: RulesBank, cue: str, value: float, sign: int, level: int) ->
     return abs(_implied_level(bank, cue, value, sign) - level) <= 1
 
 
+def _winner(gold: Mapping[str, Any]) -> int:
+    """The video an SFD/SOI answer points at (the first for a yes, the second for a no)."""
+    return gold["index"] if "index" in gold else (0 if gold["value"] else 1)
+
+
 def _comparison(item: QAItem, n: int) -> tuple[list[tuple[int, int]], dict[str, str]]:
     """(higher, lower) video pairs the gold ordering asserts, and the wording slots of an SFD/SOI item."""
     gold = item.gold
     attribute = gold["attribute"]
     attr = get_vocabulary(item.vocabulary)[attribute]
     if item.task == "SFD":
-        winner = gold["index"] if gold["kind"] == "which" else (0 if gold["value"] else 1)
+        winner = _winner(gold)
         more = gold["direction"] == "more"
         hi, lo = (winner, 1 - winner) if more else (1 - winner, winner)
         pairs = [(hi, lo)]
         ctx = {"comparative": attr.more if more else attr.less}
     else:
-        winner = gold["index"]
+        winner = _winner(gold)
         others = [v for v in range(n) if v != winner]
         pairs = [(winner, o) for o in others] if gold["direction"] == "most" else [(o, winner) for o in others]
         ctx = {"superlative": attr.most if gold["direction"] == "most" else attr.least}
@@ -550,7 +556,7 @@ class RulesTeacher:
             feels.append(w.pick(("level_feel",), slots, f"video{v + 1}", w.ok)
                          or "Video {n} feels {descriptor} (level {level})".format(**slots))
         higher = gold["direction"] in ("more", "most")
-        winner = gold["index"] if "index" in gold else (0 if gold["value"] else 1)
+        winner = _winner(gold)
         slots = {"direction": gold["direction"], "Direction": gold["direction"].capitalize(), "attribute": attribute,
                  "way": "higher" if higher else "lower", "n": str(winner + 1), "ordinal": _ORDINALS[winner]}
         if item.task == "SOI":
