@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 
@@ -146,9 +147,72 @@ def test_video_slots_tell_the_same_clip_apart_by_its_place_in_the_prompt() -> No
         tiny_model(video_slots=-1)
 
 
+def test_cross_video_lets_one_video_depend_on_the_other_videos_of_its_prompt_only() -> None:
+    model = tiny_model(cross_video=3)
+    tpv = ENCODER["tokens_per_video"]
+    inputs = batch([prompt(2), prompt(1)])
+    places = (inputs["input_ids"] == TACTILE_ID).nonzero()
+
+    def first_video(pv: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        with torch.no_grad():
+            embeds = model.embed_inputs(inputs["input_ids"], pv, inputs["attention_mask"])
+        at = places[places[:, 0] == 0][:tpv, 1]
+        alone = places[places[:, 0] == 1][:, 1]
+        return embeds[0, at], embeds[1, alone]
+
+    pv = videos(3)
+    other = pv.clone()
+    other[1] = videos(1, seed=5)[0]  # change the second video of the two-video prompt
+    assert torch.equal(first_video(pv)[0], first_video(other)[0])  # zero-initialised: no change until trained
+    torch.nn.init.normal_(model.projector.cross_video.out.weight, std=0.2)
+    (a, alone_a), (b, alone_b) = first_video(pv), first_video(other)
+    assert not torch.allclose(a, b)  # the first video's tokens now see the second video
+    assert torch.equal(alone_a, alone_b)  # a single-video prompt is left as it was
+    with pytest.raises(ValueError, match=r"holds 4 videos but the cross-video layer was built for at most 3"):
+        model.embed_inputs(batch([prompt(4)])["input_ids"], videos(4))
+    assert tiny_model().projector.cross_video is None
+    with pytest.raises(ValueError, match="cross_video must be a whole number"):
+        tiny_model(cross_video=-1)
+
+
+def test_cross_video_comparator_loss_joins_the_lm_loss_only_for_prompts_with_a_pick() -> None:
+    model = tiny_model(cross_video=3, cross_video_loss=0.5)
+    direction = model.projector.cross_video.direction[1]
+    torch.nn.init.zeros_(direction.weight)  # no direction: every video scores alike
+    torch.nn.init.zeros_(direction.bias)
+    inputs = batch([prompt(2), prompt(3), prompt(1)])
+    labels = inputs["input_ids"].masked_fill(inputs["input_ids"] == TACTILE_ID, -100)
+    pv = videos(6)
+    plain = model(**inputs, pixel_values=pv, labels=labels).loss
+    none = model(**inputs, pixel_values=pv, labels=labels, video_winner=torch.tensor([-100, -100, -100])).loss
+    assert torch.equal(plain, none)
+    picked = model(**inputs, pixel_values=pv, labels=labels, video_winner=torch.tensor([1, 2, -100])).loss
+    # alike scores: cross-entropy ln 2 for the pair, ln 3 for the triple, averaged over the two picks
+    expected = plain + 0.5 * (math.log(2) + math.log(3)) / 2
+    assert torch.allclose(picked, expected, atol=1e-4)
+    picked.backward()
+    assert direction.weight.grad.abs().sum() > 0
+    with pytest.raises(ValueError, match="cross_video_loss must be a number"):
+        tiny_model(cross_video=3, cross_video_loss=-1.0)
+
+
+def test_cross_video_verdict_reaches_every_token_of_the_prompt() -> None:
+    model = tiny_model(cross_video=2)
+    torch.nn.init.normal_(model.projector.cross_video.verdict)
+    inputs = batch([prompt(2)])
+    places = (inputs["input_ids"][0] == TACTILE_ID).nonzero().flatten()
+    pv = videos(2)
+    with torch.no_grad():
+        before = model.embed_inputs(inputs["input_ids"], pv, inputs["attention_mask"])[0, places]
+        model.projector.cross_video.verdict[1] += 1.0  # what "the second video is picked" adds
+        after = model.embed_inputs(inputs["input_ids"], pv, inputs["attention_mask"])[0, places]
+    assert (after - before).abs().sum(-1).gt(0).all()  # the tokens of both videos carry it
+
+
 def test_save_then_load_gives_identical_logits(tmp_path) -> None:
-    model = tiny_model(sensor_embedding=True, video_slots=2)
+    model = tiny_model(sensor_embedding=True, video_slots=2, cross_video=2)
     _train_fusion_a_little(model)
+    torch.nn.init.normal_(model.projector.cross_video.out.weight, std=0.2)
     torch.nn.init.normal_(model.projector.video_slot.shift)
     torch.nn.init.normal_(model.projector.video_slot.mix, std=0.1)
     model.save_pretrained(tmp_path)

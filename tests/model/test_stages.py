@@ -20,9 +20,11 @@ NEW_IDS = [296, 297, 298, TACTILE_ID]
 
 
 def _model() -> TacReasonerForCausalLM:
-    model = tiny_model(sensor_embedding=True, video_slots=2)
+    model = tiny_model(sensor_embedding=True, video_slots=2, cross_video=2)
     model.config.new_token_ids = NEW_IDS
     torch.nn.init.normal_(model.tactile_encoder.fusion.ffn[-1].weight, std=0.1)  # let gradients flow everywhere
+    torch.nn.init.normal_(model.projector.cross_video.out.weight, std=0.1)
+    torch.nn.init.normal_(model.projector.cross_video.verdict, std=0.1)
     return model.train()
 
 
@@ -47,7 +49,7 @@ def test_stage_one_trains_temporal_fusion_projector_and_new_token_rows_only() ->
     assert got - {embedding} and all(n.startswith(prefixes) for n in got - {embedding})
     expected = {n for n, _ in model.named_parameters() if n.startswith(prefixes)}
     assert expected - got == set(), f"never reached: {sorted(expected - got)}"
-    assert {"projector.video_slot.shift", "projector.video_slot.mix"} <= got
+    assert {"projector.video_slot.shift", "projector.video_slot.mix", "projector.cross_video.out.weight"} <= got
     assert not any(n.startswith("tactile_encoder.appearance.") for n in got)
     grad = model.get_input_embeddings().weight.grad
     rows = grad.abs().sum(1).nonzero().flatten().tolist()
@@ -72,6 +74,7 @@ def test_stage_two_trains_projector_lora_and_new_token_rows_only() -> None:
     got = _with_grad(peft_model)
     assert got == set(names), f"missing {set(names) - got}, extra {got - set(names)}"
     assert any("projector.modules_to_save.default.video_slot" in n for n in got)
+    assert any("projector.modules_to_save.default.cross_video" in n for n in got)
     assert not any("tactile_encoder" in n for n in got)
 
 

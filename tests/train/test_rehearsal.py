@@ -72,6 +72,33 @@ def test_stage1_video_readings_ask_for_one_video_of_each_comparison(inputs) -> N
         assert len(example.videos) == len(item.videos)
 
 
+def test_stage1_comparisons_add_the_train_comparisons_with_their_plain_verdicts(inputs) -> None:
+    from tacreasoner.train.data import STAGE1_TASKS, load_examples
+
+    train = load_bench(inputs["bench"], "train")[1]
+    plain = load_examples(1, inputs["bench"])
+    extended = load_examples(1, inputs["bench"], comparisons=True)
+    assert {e.task for e in plain} <= set(STAGE1_TASKS)
+    added = [e for e in extended if e.task in ("SFD", "SOI")]
+    expected = {i.id: i for i in train if i.task in ("SFD", "SOI")}
+    assert len(extended) == len(plain) + len(added) and {e.key for e in added} == set(expected) != set()
+    for example in added:
+        item = expected[example.key]
+        assert example.target == f"<answer>{item.answer}</answer>" and len(example.videos) == len(item.videos) >= 2
+        # the comparator's target: the video the question picks ("yes" to "is the first softer?" picks the first)
+        ranks, gold = item.meta["ranks"], item.gold
+        pick = (max if gold["direction"] in ("more", "most") else min)(range(len(ranks)), key=ranks.__getitem__)
+        assert example.winner == pick
+    assert not any(e.task == "OSC" for e in extended)
+    assert all(e.winner == -100 for e in plain)
+    cot = load_examples(2, inputs["bench"], touchcot=inputs["touchcot"])
+    by_key = {e.key: e.winner for e in extended}
+    records = {r["id"]: r["item_id"] for r in _records(inputs["touchcot"])}
+    compared = [e for e in cot if e.task in ("SFD", "SOI")]
+    assert compared and all(e.winner == by_key[records[e.key]] for e in compared)
+    assert all(e.winner == -100 for e in cot if e.task not in ("SFD", "SOI"))
+
+
 def test_only_items_with_levels_are_rehearsed_and_bad_input_is_named(inputs, tmp_path: Path) -> None:
     records = _records(inputs["touchcot"])
     multi = next(r for r in records if r["task"] in REHEARSED_TASKS)

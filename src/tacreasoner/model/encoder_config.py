@@ -48,6 +48,12 @@ class TactileEncoderConfig:
     video_slots: int = 0
     """Places told apart by a learned vector and linear map on each video's projected tokens (``VideoSlots``;
     0 = none); at least the most videos one prompt may hold (3 on DynTAC-Sim-Bench)."""
+    cross_video: int = 0
+    """Most videos of one prompt that see each other through ``CrossVideoFusion`` (one attention layer over all of a
+    prompt's video tokens, in the projector; 0 = off): the tokens can then carry how the videos compare. Trains with
+    the projector in Stages I and II (Stage I only reaches it with ``data.stage1_comparisons``); docs/training.md."""
+    cross_video_loss: float = 1.0
+    """Weight of the cross-video comparator's cross-entropy (which video the comparison picks) in the training loss."""
     video_labels: bool = False
     """Prompts holding several videos name each before its tokens ("Video 2: "), as the reasoning names them: the
     LLM can then find a video's tokens by its name (the processor's job; kept here so a saved model keeps it)."""
@@ -99,6 +105,11 @@ class TactileEncoderConfig:
                              f"the {self.num_patches} the ViT makes")
         if not isinstance(self.video_slots, int) or isinstance(self.video_slots, bool) or self.video_slots < 0:
             raise ValueError(f"encoder config: video_slots must be a whole number ≥ 0, got {self.video_slots!r}")
+        if not isinstance(self.cross_video, int) or isinstance(self.cross_video, bool) or self.cross_video < 0:
+            raise ValueError(f"encoder config: cross_video must be a whole number ≥ 0, got {self.cross_video!r}")
+        if not isinstance(self.cross_video_loss, (int, float)) or isinstance(self.cross_video_loss, bool) \
+                or not self.cross_video_loss >= 0:
+            raise ValueError(f"encoder config: cross_video_loss must be a number ≥ 0, got {self.cross_video_loss!r}")
         if not isinstance(self.video_labels, bool):
             raise ValueError(f"encoder config: video_labels must be true or false, got {self.video_labels!r}")
         if not self.sensor_types:

@@ -76,8 +76,10 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
                 module._is_hf_initialized = True
         self.language_model = language_model
         self.tactile_encoder = DynamicTactileEncoder(config.encoder_config, config.text_hidden_size)
-        self.projector = TactileProjector(self.tactile_encoder.hidden_size, config.text_hidden_size,
-                                          self.encoder_config.video_slots)
+        enc = self.encoder_config
+        self.projector = TactileProjector(enc.hidden_size, config.text_hidden_size, enc.video_slots, enc.cross_video,
+                                          enc.fusion_heads, enc.mlp_ratio, config.text_hidden_size,
+                                          enc.tokens_per_video)
         self.post_init()
 
     # ------------------------------------------------------------------ HF plumbing
@@ -140,18 +142,27 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
 
     def encode_videos(self, pixel_values: torch.Tensor, question: torch.Tensor | None = None,
                       sensor_ids: torch.Tensor | None = None, appearance: torch.Tensor | None = None,
-                      slots: torch.Tensor | None = None) -> torch.Tensor:
+                      slots: torch.Tensor | None = None, per_sample: torch.Tensor | None = None,
+                      sample_question: torch.Tensor | None = None) -> torch.Tensor:
         """Videos → V×tokens_per_video×LLM-hidden embeddings (what replaces the placeholders).
 
-        ``slots``: each video's position in its own prompt (0 for the first), for ``encoder.video_slots``."""
+        ``slots``: each video's position in its own prompt (0 for the first), for ``encoder.video_slots``;
+        ``per_sample`` (videos per prompt) and ``sample_question`` (B×H), for ``encoder.cross_video``."""
         features = self.tactile_encoder(pixel_values, question, sensor_ids, appearance)
-        return self.projector(features, slots)
+        return self.projector(features, slots, per_sample, sample_question)
 
     def embed_inputs(self, input_ids: torch.Tensor, pixel_values: torch.Tensor | None = None,
                      attention_mask: torch.Tensor | None = None, question_mask: torch.Tensor | None = None,
                      sensor_ids: torch.Tensor | None = None, appearance_tokens: torch.Tensor | None = None,
                      ) -> torch.Tensor:
         """Text embeddings with each video's tactile embeddings written over its placeholder run."""
+        return self._embed(input_ids, pixel_values, attention_mask, question_mask, sensor_ids, appearance_tokens)[0]
+
+    def _embed(self, input_ids: torch.Tensor, pixel_values: torch.Tensor | None, attention_mask: torch.Tensor | None,
+               question_mask: torch.Tensor | None, sensor_ids: torch.Tensor | None,
+               appearance_tokens: torch.Tensor | None, video_winner: torch.Tensor | None = None,
+               ) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """:meth:`embed_inputs` plus the cross-video comparator's loss against ``video_winner`` (None without)."""
         tpv = self.encoder_config.tokens_per_video
         per_sample = count_videos(input_ids, self.config.tactile_token_id, tpv)
         n_placeholders, n_videos = int(per_sample.sum()), 0 if pixel_values is None else len(pixel_values)
@@ -160,19 +171,22 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
                              f"({n_placeholders * tpv} tokens at {tpv} per video) but {n_videos} video(s) were given")
         text_embeds = self.get_input_embeddings()(input_ids)
         if n_videos == 0:
-            return text_embeds
-        question = None
-        if self.encoder_config.use_temporal and self.encoder_config.question_conditioning:
+            return text_embeds, None
+        question = per_sample_q = None
+        if self.encoder_config.cross_video or (self.encoder_config.use_temporal
+                                               and self.encoder_config.question_conditioning):
             per_sample_q = self.question_vectors(input_ids, text_embeds, attention_mask, question_mask)
+        if self.encoder_config.use_temporal and self.encoder_config.question_conditioning:
             question = per_sample_q.repeat_interleave(per_sample, dim=0)
         slots = None
         if self.projector.video_slot is not None:  # each video's place in its own prompt: 0, 1, … per sample
             first = (per_sample.cumsum(0) - per_sample).repeat_interleave(per_sample)
             slots = torch.arange(n_videos, device=input_ids.device) - first
-        tactile = self.encode_videos(pixel_values.to(text_embeds.dtype), question, sensor_ids, appearance_tokens,
-                                     slots)
+        features = self.tactile_encoder(pixel_values.to(text_embeds.dtype), question, sensor_ids, appearance_tokens)
+        tactile, comparison_loss = self.projector.project(features, slots, per_sample, per_sample_q, video_winner)
         mask = (input_ids == self.config.tactile_token_id).unsqueeze(-1)
-        return text_embeds.masked_scatter(mask, tactile.to(text_embeds.dtype).reshape(-1, text_embeds.shape[-1]))
+        embeds = text_embeds.masked_scatter(mask, tactile.to(text_embeds.dtype).reshape(-1, text_embeds.shape[-1]))
+        return embeds, comparison_loss
 
     # ------------------------------------------------------------------ forward / generate
     def forward(self, input_ids: torch.Tensor | None = None, attention_mask: torch.Tensor | None = None,
@@ -180,18 +194,26 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
                 question_mask: torch.Tensor | None = None, labels: torch.Tensor | None = None,
                 position_ids: torch.Tensor | None = None, past_key_values: Any = None,
                 inputs_embeds: torch.Tensor | None = None, use_cache: bool | None = None,
-                appearance_tokens: torch.Tensor | None = None, **kwargs: Any) -> CausalLMOutputWithPast:
-        """``appearance_tokens`` (optional, V×tokens_per_video×hidden): cached output of the frozen ViT."""
+                appearance_tokens: torch.Tensor | None = None, video_winner: torch.Tensor | None = None,
+                **kwargs: Any) -> CausalLMOutputWithPast:
+        """``appearance_tokens`` (optional, V×tokens_per_video×hidden): cached output of the frozen ViT.
+        ``video_winner`` (optional, B): per prompt the place of the video its comparison picks (−100: none); with
+        ``encoder.cross_video`` and labels, the comparator's cross-entropy × ``encoder.cross_video_loss`` joins the
+        loss."""
+        comparison_loss = None
         if inputs_embeds is None:
             if input_ids is None:
                 raise ValueError("give input_ids (from TacReasonerProcessor) or inputs_embeds")
-            inputs_embeds = self.embed_inputs(input_ids, pixel_values, attention_mask, question_mask, sensor_ids,
-                                              appearance_tokens)
+            inputs_embeds, comparison_loss = self._embed(input_ids, pixel_values, attention_mask, question_mask,
+                                                         sensor_ids, appearance_tokens, video_winner)
         elif pixel_values is not None:
             raise ValueError("pixel_values need input_ids to find the placeholders; got inputs_embeds instead")
-        return self.language_model(inputs_embeds=inputs_embeds, attention_mask=attention_mask, labels=labels,
-                                   position_ids=position_ids, past_key_values=past_key_values, use_cache=use_cache,
-                                   **kwargs)
+        out = self.language_model(inputs_embeds=inputs_embeds, attention_mask=attention_mask, labels=labels,
+                                  position_ids=position_ids, past_key_values=past_key_values, use_cache=use_cache,
+                                  **kwargs)
+        if comparison_loss is not None and out.loss is not None:
+            out.loss = out.loss + self.encoder_config.cross_video_loss * comparison_loss.to(out.loss.dtype)
+        return out
 
     @torch.no_grad()
     def generate(self, input_ids: torch.Tensor, attention_mask: torch.Tensor | None = None,

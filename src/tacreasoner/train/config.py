@@ -76,6 +76,9 @@ class DataSettings:
     stage1_video_readings: bool = False
     """Stage I also asks how one video of a comparison's two or three feels ("How does Video 2 feel in hardness?"),
     so the projector learns tokens the LLM finds by their label (``encoder.video_labels``; docs/training.md)."""
+    stage1_comparisons: bool = False
+    """Stage I also answers the train split's comparisons (SFD, SOI) with their plain verdicts, so the encoder and
+    projector learn to present two or three videos in a way the frozen LLM can compare (docs/training.md)."""
     tasks: list[str] | None = None
     """Restrict training items to these tasks (default: all in the files; TSA is never trained on)."""
     max_length: int = 768

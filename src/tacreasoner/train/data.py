@@ -38,6 +38,9 @@ __all__ = ["STAGE1_TASKS", "TrainExample", "VideoBank", "batch_plan", "batch_pur
 STAGE1_TASKS = (*TFA_TASKS, "RFOR", "OCSE")
 """Single-clip description tasks: Stage I's alignment data."""
 
+COMPARISON_TASKS = ("SFD", "SOI")
+"""Multi-video tasks Stage I adds with ``data.stage1_comparisons``."""
+
 VideoKey = tuple[str, int | None, int | None]
 
 
@@ -49,6 +52,17 @@ class TrainExample:
     target: str
     videos: tuple[VideoKey, ...]
     """(absolute video path, segment start, segment end) per ``<tactile>``, in order."""
+    winner: int = IGNORE_INDEX
+    """SFD/SOI: the place (0-based) of the video the question picks, for ``encoder.cross_video``'s comparator."""
+
+
+def comparison_winner(item: QAItem) -> int:
+    """The place of the video an SFD/SOI item's question picks (yes/no: the first if "yes"), else IGNORE_INDEX."""
+    if item.task not in COMPARISON_TASKS:
+        return IGNORE_INDEX
+    if item.gold.get("kind") == "yesno":
+        return 0 if item.gold["value"] else 1
+    return int(item.gold["index"])
 
 
 def video_key(ref: VideoRef, root: Path, where: str) -> VideoKey:
@@ -76,11 +90,14 @@ def bench_video_root(bench_dir: Path, info: dict) -> Path:
 
 def _from_items(items: Sequence[QAItem], root: Path, target: Callable[[QAItem], str]) -> list[TrainExample]:
     return [TrainExample(key=item.id, task=item.task, question=item.question, target=target(item),
-                         videos=tuple(video_key(v, root, f"item {item.id!r}") for v in item.videos))
+                         videos=tuple(video_key(v, root, f"item {item.id!r}") for v in item.videos),
+                         winner=comparison_winner(item))
             for item in items]
 
 
-def _touchcot(path: Path, root: Path) -> list[TrainExample]:
+def _touchcot(path: Path, root: Path, items: Sequence[QAItem] = ()) -> list[TrainExample]:
+    """TouchCoT records; ``items`` (the benchmark's train split) gives comparisons their gold pick."""
+    winners = {i.id: comparison_winner(i) for i in items}
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no TouchCoT training file (run `tacreasoner build-cot`, or set "
                                 f"data.stage2_data: plain)")
@@ -96,7 +113,8 @@ def _touchcot(path: Path, root: Path) -> list[TrainExample]:
                         for v in record["videos"]]
                 out.append(TrainExample(key=str(record["id"]), task=str(record["task"]),
                                         question=str(record["question"]), target=str(record["output"]),
-                                        videos=tuple(video_key(r, root, where) for r in refs)))
+                                        videos=tuple(video_key(r, root, where) for r in refs),
+                                        winner=winners.get(str(record.get("item_id")), IGNORE_INDEX)))
             except (json.JSONDecodeError, KeyError, TypeError) as exc:
                 raise ValueError(f"{where}: not a TouchCoT training record ({type(exc).__name__}: {exc}); "
                                  f"expected id, task, question, videos, output") from None
@@ -122,12 +140,13 @@ def _video_readings(items: Sequence[QAItem], root: Path) -> list[TrainExample]:
 
 def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None = None, stage2_data: str = "touchcot",
                   tasks: Sequence[str] | None = None, max_items: int | None = None,
-                  video_readings: bool = False) -> list[TrainExample]:
+                  video_readings: bool = False, comparisons: bool = False) -> list[TrainExample]:
     """The examples of ``stage`` (see the module doc); TSA is never among them."""
     bench = Path(bench)
     root, items = _bench_items(bench)
     if stage == 1:
-        examples = _from_items([i for i in items if i.task in STAGE1_TASKS], root, _answer_only)
+        wanted = (*STAGE1_TASKS, *COMPARISON_TASKS) if comparisons else STAGE1_TASKS
+        examples = _from_items([i for i in items if i.task in wanted], root, _answer_only)
         if video_readings:
             examples += _video_readings(items, root)
     elif stage2_data == "plain":
@@ -135,7 +154,7 @@ def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None 
     else:
         if touchcot is None:
             raise ValueError("data.touchcot: Stage II on TouchCoT needs the training JSONL from build-cot")
-        examples = [e for e in _touchcot(Path(touchcot), root) if e.task != "TSA"]
+        examples = [e for e in _touchcot(Path(touchcot), root, items) if e.task != "TSA"]
     if tasks is not None:
         examples = [e for e in examples if e.task in set(tasks)]
     if max_items is not None:
@@ -155,6 +174,7 @@ class Tokenized:
     question_mask: list[int]
     videos: tuple[VideoKey, ...]
     key: str
+    winner: int = IGNORE_INDEX
 
     @property
     def n_labels(self) -> int:
@@ -171,7 +191,7 @@ def tokenize_examples(processor: Any, examples: Sequence[TrainExample], max_leng
         if len(enc.input_ids) > max_length:
             dropped.append(e.key)
             continue
-        kept.append(Tokenized(enc.input_ids, enc.labels, enc.question_mask, e.videos, e.key))
+        kept.append(Tokenized(enc.input_ids, enc.labels, enc.question_mask, e.videos, e.key, e.winner))
     return kept, dropped
 
 
@@ -258,12 +278,14 @@ class VideoBank:
 
 
 def collate(processor: Any, examples: Sequence[Tokenized], bank: VideoBank) -> dict[str, Any]:
-    """Right-padded ids/labels/masks plus the videos of every example, in order (what the model expects)."""
+    """Right-padded ids/labels/masks plus the videos of every example, in order (what the model expects), and
+    each comparison's gold pick (``video_winner``, IGNORE_INDEX elsewhere) for the cross-video comparator."""
     batch = processor.collate([{"input_ids": e.input_ids, "labels": e.labels, "question_mask": e.question_mask,
                                 "pixel_values": torch.zeros(0), "sensor_ids": torch.zeros(0, dtype=torch.long)}
                                for e in examples])
     batch = dict(batch)
     batch.update(bank.batch([k for e in examples for k in e.videos]))
+    batch["video_winner"] = torch.tensor([e.winner for e in examples], dtype=torch.long)
     return batch
 
 

@@ -225,7 +225,8 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
 
     examples = load_examples(stage, config.data.bench, touchcot=config.data.touchcot,
                              stage2_data=config.data.stage2_data, tasks=config.data.tasks,
-                             max_items=config.data.max_items, video_readings=config.data.stage1_video_readings)
+                             max_items=config.data.max_items, video_readings=config.data.stage1_video_readings,
+                             comparisons=config.data.stage1_comparisons)
     tokenized, dropped = tokenize_examples(processor, examples, config.data.max_length)
     if not tokenized:
         raise ValueError(f"every example is longer than data.max_length={config.data.max_length} tokens")
