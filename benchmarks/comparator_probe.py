@@ -9,7 +9,9 @@ and scored on the test items (held-out objects). The direction is
 - *from the question*: a linear map of the mean question embedding (as ``encoder.cross_video``'s comparator), with
   LayerNorm per video or with per-dimension standardisation;
 - *per attribute*: one learned direction per attribute, chosen by the item's gold attribute and signed by its
-  comparative (more/most: +, less/least: −), on standardised features.
+  comparative (more/most: +, less/least: −), on standardised features;
+- *per attribute, read from the question*: the same directions, with the test items' attribute and comparative
+  predicted from the mean question embedding by two linear classifiers fitted on the train items.
 It tells whether the comparisons fail on the features or on how the question chooses the direction.
 Results: benchmarks/results/comparator_probe.{json,md}.
 """
@@ -57,6 +59,23 @@ def _features(model, processor, bench: Path, cache: Path, split: str) -> dict:
             "sign": [1.0 if i.gold["direction"] in ("more", "most") else -1.0 for i in items]}
 
 
+def _read_from_question(train: dict, data: dict) -> dict:
+    """``data``'s attribute and comparative sign as predicted from its question embedding (ridge classifiers)."""
+    x_train, x = train["questions"].numpy(), data["questions"].numpy()
+    mu, sd = x_train.mean(0), x_train.std(0) + 1e-6
+    a, b = (x_train - mu) / sd, (x - mu) / sd
+
+    def fit(labels: np.ndarray, classes: int) -> np.ndarray:
+        w = np.linalg.solve(a.T @ a + 10.0 * np.eye(a.shape[1]), a.T @ np.eye(classes)[labels])
+        return (b @ w).argmax(1)
+
+    attribute = fit(np.array(train["attribute"]), len(ATTRIBUTES))
+    more = fit(np.array([int(s > 0) for s in train["sign"]]), 2)
+    return {"attribute": [int(v) for v in attribute], "sign": [1.0 if v else -1.0 for v in more],
+            "read_right": float(np.mean((attribute == np.array(data["attribute"]))
+                                        & ((more * 2 - 1) == np.array(data["sign"]))))}
+
+
 def _train_and_score(train: dict, test: dict, kind: str, steps: int) -> dict:
     import torch
     from torch import nn
@@ -79,9 +98,9 @@ def _train_and_score(train: dict, test: dict, kind: str, steps: int) -> dict:
             return f @ from_question(data["questions"][n]) / width ** 0.5
         return f @ (data["sign"][n] * per_attribute[data["attribute"][n]]) / width ** 0.5
 
-    params = [per_attribute] if kind == "per attribute" else [*from_question.parameters(), *norm.parameters()]
-    opt = torch.optim.AdamW(params, lr=1e-2 if kind == "per attribute" else 1e-3,
-                            weight_decay=0.1 if kind == "per attribute" else 0.0)
+    per_attr = kind.startswith("per attribute")
+    params = [per_attribute] if per_attr else [*from_question.parameters(), *norm.parameters()]
+    opt = torch.optim.AdamW(params, lr=1e-2 if per_attr else 1e-3, weight_decay=0.1 if per_attr else 0.0)
     gen = torch.Generator().manual_seed(0)
     for _ in range(steps):
         batch = torch.randint(0, len(train["feats"]), (16,), generator=gen).tolist()
@@ -91,10 +110,13 @@ def _train_and_score(train: dict, test: dict, kind: str, steps: int) -> dict:
         opt.step()
 
     def accuracy(data: dict) -> dict:
+        if kind == "per attribute, read from the question":
+            data = {**data, **_read_from_question(train, data)}
         with torch.no_grad():
             right = [int(scores(data, n).argmax()) == int(data["winner"][n]) for n in range(len(data["feats"]))]
         tasks = [i.task for i in data["items"]]
-        return {t: float(np.mean([r for r, tt in zip(right, tasks, strict=True) if tt == t])) for t in ("SFD", "SOI")}
+        out = {t: float(np.mean([r for r, tt in zip(right, tasks, strict=True) if tt == t])) for t in ("SFD", "SOI")}
+        return out | ({"question read right": data["read_right"]} if "read_right" in data else {})
 
     return {"train": accuracy(train), "test": accuracy(test)}
 
@@ -116,18 +138,20 @@ def main() -> None:
     base = getattr(model, "get_base_model", lambda: model)()
     bench, cache = args.run / "bench", args.run / "video_cache"
     train, test = (_features(base, processor, bench, cache, split) for split in ("train", "test"))
-    kinds = ("question, LayerNorm", "question, standardised", "per attribute")
+    kinds = ("question, LayerNorm", "question, standardised", "per attribute", "per attribute, read from the question")
     results = {kind: _train_and_score(train, test, kind, args.steps) for kind in kinds}
     info = stamp()
     md = header_md("Comparator probe: can SFD/SOI be learnt from the tactile features by gradient?", info)
     md += (f"Model: `{model_dir}` (its question-conditioned encoder output, fixed). {len(train['items'])} train and "
            f"{len(test['items'])} test SFD/SOI items (test objects unseen); Adam, {args.steps} steps of 16 items. "
            "Direction *question*: a linear map of the mean question embedding; *per attribute*: a learned "
-           "direction per attribute, chosen by the gold attribute and signed by the comparative. Chance: SFD 0.5, "
+           "direction per attribute, chosen by the gold attribute and signed by the comparative; *read from the "
+           "question*: the same, with the test items' attribute and comparative predicted from the question embedding "
+           "by linear classifiers fitted on the train items. Chance: SFD 0.5, "
            "SOI 0.333; a Wilson lower bound above chance at n = 75 needs SFD 0.61, SOI 0.453.\n\n")
-    md += md_table(["direction", "train SFD", "train SOI", "test SFD", "test SOI"],
-                   [[k, r["train"]["SFD"], r["train"]["SOI"], r["test"]["SFD"], r["test"]["SOI"]]
-                    for k, r in results.items()])
+    md += md_table(["direction", "train SFD", "train SOI", "test SFD", "test SOI", "test attribute + comparative read"],
+                   [[k, r["train"]["SFD"], r["train"]["SOI"], r["test"]["SFD"], r["test"]["SOI"],
+                     r["test"].get("question read right", "–")] for k, r in results.items()])
     publish("comparator_probe", {**info, "model": str(model_dir), "steps": args.steps, "results": results}, md)
 
 
