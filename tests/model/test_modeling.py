@@ -176,10 +176,8 @@ def test_cross_video_lets_one_video_depend_on_the_other_videos_of_its_prompt_onl
 
 
 def test_cross_video_comparator_loss_joins_the_lm_loss_only_for_prompts_with_a_pick() -> None:
-    model = tiny_model(cross_video=3, cross_video_loss=0.5)
-    direction = model.projector.cross_video.direction[1]
-    torch.nn.init.zeros_(direction.weight)  # no direction: every video scores alike
-    torch.nn.init.zeros_(direction.bias)
+    model = tiny_model(cross_video=3, cross_video_loss=0.5).train()
+    cv = model.projector.cross_video
     inputs = batch([prompt(2), prompt(3), prompt(1)])
     labels = inputs["input_ids"].masked_fill(inputs["input_ids"] == TACTILE_ID, -100)
     pv = videos(6)
@@ -187,18 +185,89 @@ def test_cross_video_comparator_loss_joins_the_lm_loss_only_for_prompts_with_a_p
     none = model(**inputs, pixel_values=pv, labels=labels, video_winner=torch.tensor([-100, -100, -100])).loss
     assert torch.equal(plain, none)
     picked = model(**inputs, pixel_values=pv, labels=labels, video_winner=torch.tensor([1, 2, -100])).loss
-    # alike scores: cross-entropy ln 2 for the pair, ln 3 for the triple, averaged over the two picks
+    # the directions start at zero, so every video scores alike: cross-entropy ln 2 for the pair, ln 3 for the
+    # triple, averaged over the two picks
     expected = plain + 0.5 * (math.log(2) + math.log(3)) / 2
     assert torch.allclose(picked, expected, atol=1e-4)
     picked.backward()
-    assert direction.weight.grad.abs().sum() > 0
+    assert cv.directions.grad.abs().sum() > 0
+    # with the attribute (index into cross_video_attributes) and the comparative known, their losses join too
+    model.zero_grad()
+    targets = torch.tensor([[1, 0, 1], [2, 2, 0], [-100, -100, -100]])
+    named = model(**inputs, pixel_values=pv, labels=labels, video_winner=targets).loss
+    assert named > picked
+    named.backward()
+    assert cv.attribute[1].weight.grad.abs().sum() > 0 and cv.comparative[1].weight.grad.abs().sum() > 0
+    assert bool((cv.feature_mean != 0).any())  # running statistics move while training
     with pytest.raises(ValueError, match="cross_video_loss must be a number"):
         tiny_model(cross_video=3, cross_video_loss=-1.0)
+
+
+def _comparisons(n: int, k: int, gen: torch.Generator, tokens: int = 2, hidden: int = 8, question_dim: int = 6
+                 ) -> tuple[list[torch.Tensor], torch.Tensor, torch.Tensor]:
+    """Prompts of k videos whose attribute a (0 or 1) sits in feature a of token 0, asked by a question vector that
+    names the attribute and the way (more/less) in its first three entries, plus noise."""
+    feats = [torch.randn(k, tokens, hidden, generator=gen) * 0.5 for _ in range(n)]
+    attribute = torch.randint(0, 2, (n,), generator=gen)
+    more = torch.randint(0, 2, (n,), generator=gen)
+    questions = torch.randn(n, question_dim, generator=gen) * 0.1
+    questions[torch.arange(n), attribute] += 1.0
+    questions[:, 2] += more * 2.0 - 1.0
+    for f, a in zip(feats, attribute.tolist(), strict=True):
+        f[:, 0, a] += torch.randn(k, generator=gen) * 2.0
+    winner = torch.stack([(f[:, 0, a] if m else -f[:, 0, a]).argmax()
+                          for f, a, m in zip(feats, attribute.tolist(), more.tolist(), strict=True)])
+    return feats, questions, torch.stack([winner, attribute, more], dim=1)
+
+
+def test_cross_video_comparator_fit_picks_by_attribute_and_comparative_then_freezes() -> None:
+    from tacreasoner.model.tactile_encoder import CrossVideoFusion
+
+    fusion = CrossVideoFusion(8, 2, 2.0, 3, 6, tokens_per_video=2, attributes=2).train()
+    gen = torch.Generator().manual_seed(0)
+    train = [_comparisons(60, 2, gen), _comparisons(60, 3, gen)]
+    feats = [f for part in train for f in part[0]]
+    fitted = fusion.fit(feats, torch.cat([p[1] for p in train]), torch.cat([p[2] for p in train]), steps=300)
+    assert fitted["comparisons"] == 120 and fitted["pick"] > 0.9 and fitted["attribute"] == 1.0
+    assert all(not p.requires_grad for p in fusion.comparator_parameters)
+    stats = fusion.feature_mean.clone()
+    torch.testing.assert_close(stats, torch.cat([f.flatten(1) for f in feats]).mean(0))
+    # unseen prompts: the fitted comparator picks them too, through the forward pass's scores
+    test_feats, test_q, test_gold = _comparisons(50, 2, gen)
+    with torch.no_grad():
+        scores, _, _ = fusion._compare(fusion._normalised(torch.stack([f.flatten(1) for f in test_feats])), test_q)
+    assert (scores.argmax(-1) == test_gold[:, 0]).float().mean() > 0.85
+    # a frozen comparator's statistics stay put in training mode
+    fusion(torch.cat(test_feats[:4]), torch.tensor([2, 2, 2, 2]), test_q[:4])
+    assert torch.equal(fusion.feature_mean, stats)
+    with pytest.raises(ValueError, match="at least one comparison"):
+        fusion.fit([], torch.zeros(0, 6), torch.zeros(0, 3, dtype=torch.long))
+
+
+def test_the_comparator_reads_its_question_from_the_llm_s_own_rows_only() -> None:
+    model = tiny_model(cross_video=2)
+    model.config.new_token_ids = [12, 13]  # rows Stage II trains: moving them must not move what the comparator reads
+    inputs = batch([prompt(2, question=[11, 12, 13, 14])])
+    embed = model.get_input_embeddings()
+    text = embed(inputs["input_ids"])
+    pretrained = model.question_vectors(inputs["input_ids"], text, inputs["attention_mask"], None,
+                                        pretrained_only=True)
+    kept = [11, 14, *range(20, 22), 30, 31]  # every real, non-tactile token but the new rows
+    torch.testing.assert_close(pretrained[0], embed.weight[kept].mean(0))
+    _, _, per_sample, compared = model.tactile_features(inputs["input_ids"], videos(2), inputs["attention_mask"],
+                                                        None, None)
+    with torch.no_grad():
+        embed.weight[12:14] += 5.0
+    _, _, _, moved = model.tactile_features(inputs["input_ids"], videos(2), inputs["attention_mask"], None, None)
+    assert per_sample.tolist() == [2] and torch.equal(compared, moved)
+    assert tiny_model().tactile_features(inputs["input_ids"], videos(2), inputs["attention_mask"], None,
+                                         None)[3] is None  # nothing reads it without the cross-video layer
 
 
 def test_cross_video_verdict_reaches_every_token_of_the_prompt() -> None:
     model = tiny_model(cross_video=2)
     torch.nn.init.normal_(model.projector.cross_video.verdict)
+    torch.nn.init.normal_(model.projector.cross_video.directions)
     inputs = batch([prompt(2)])
     places = (inputs["input_ids"][0] == TACTILE_ID).nonzero().flatten()
     pv = videos(2)
@@ -213,6 +282,9 @@ def test_save_then_load_gives_identical_logits(tmp_path) -> None:
     model = tiny_model(sensor_embedding=True, video_slots=2, cross_video=2)
     _train_fusion_a_little(model)
     torch.nn.init.normal_(model.projector.cross_video.out.weight, std=0.2)
+    torch.nn.init.normal_(model.projector.cross_video.directions, std=0.2)
+    torch.nn.init.normal_(model.projector.cross_video.verdict, std=0.2)
+    torch.nn.init.normal_(model.projector.cross_video.feature_mean, std=0.2)  # a saved buffer too
     torch.nn.init.normal_(model.projector.video_slot.shift)
     torch.nn.init.normal_(model.projector.video_slot.mix, std=0.1)
     model.save_pretrained(tmp_path)

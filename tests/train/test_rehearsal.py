@@ -89,6 +89,7 @@ def test_stage1_comparisons_add_the_train_comparisons_with_their_plain_verdicts(
         ranks, gold = item.meta["ranks"], item.gold
         pick = (max if gold["direction"] in ("more", "most") else min)(range(len(ranks)), key=ranks.__getitem__)
         assert example.winner == pick
+        assert example.attribute == gold["attribute"] and example.more == int(gold["direction"] in ("more", "most"))
     assert not any(e.task == "OSC" for e in extended)
     assert all(e.winner == -100 for e in plain)
     cot = load_examples(2, inputs["bench"], touchcot=inputs["touchcot"])
@@ -96,6 +97,12 @@ def test_stage1_comparisons_add_the_train_comparisons_with_their_plain_verdicts(
     records = {r["id"]: r["item_id"] for r in _records(inputs["touchcot"])}
     compared = [e for e in cot if e.task in ("SFD", "SOI")]
     assert compared and all(e.winner == by_key[records[e.key]] for e in compared)
+    assert all(e.attribute and e.more in (0, 1) for e in compared)
+    from tacreasoner.train.data import Tokenized, comparison_targets
+
+    rows = [Tokenized([], [], [], (), e.key, e.winner, e.attribute, e.more) for e in (compared[0], cot[0])]
+    targets = comparison_targets(rows, ("not-an-attribute", compared[0].attribute))
+    assert targets.tolist() == [[compared[0].winner, 1, compared[0].more], [-100, -100, -100]]
     assert all(e.winner == -100 for e in cot if e.task not in ("SFD", "SOI"))
 
 

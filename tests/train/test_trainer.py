@@ -10,6 +10,7 @@ import torch
 from safetensors.torch import load_file
 from trainsetup import tiny_config, training_inputs
 
+from tacreasoner.model.modeling import TacReasonerForCausalLM
 from tacreasoner.train.trainer import NonFiniteLossError, train_stage
 
 
@@ -199,3 +200,29 @@ def test_evaluate_and_ask_commands_on_a_trained_model(two_stage_run: Path, input
     result = runner.invoke(app, ["ask", "Compare <tactile> and <tactile>", "--video", str(video), "--model",
                                  str(model)])
     assert result.exit_code == 2 and "2 <tactile> placeholder(s) but 1 video(s)" in result.output
+
+
+def test_stage_two_fits_the_comparator_first_and_keeps_it_frozen(inputs, tmp_path) -> None:
+    from trainsetup import ENCODER
+
+    from tacreasoner.model.build import load_model
+
+    def run(out: Path, steps: int) -> tuple[dict, TacReasonerForCausalLM]:
+        config = tiny_config(inputs, out, stage1={"skip": True}, stage2={"steps": steps},
+                             model={"encoder": {**ENCODER, "cross_video": 3}})
+        train_stage(config, 2)
+        return json.loads((out / "stage2" / "run.json").read_text()), load_model(out / "stage2" / "model")[0]
+
+    info, model = run(tmp_path / "three", 3)
+    fitted = info["comparator"]
+    assert fitted["comparisons"] > 0 and 0.0 <= fitted["pick"] <= 1.0
+    assert fitted["attribute"] > 0.9  # the attribute is plain in the question
+    fusion = model.projector.cross_video
+    assert bool(fusion.directions.abs().sum() > 0) and bool((fusion.feature_mean != 0).any())
+    _, shorter = run(tmp_path / "one", 1)
+    other = shorter.projector.cross_video
+    # fitted the same way (seeded, fixed features) and untouched by Stage II's steps, which do train the rest
+    for name in ("directions", "feature_mean", "feature_var", "attribute.1.weight", "comparative.1.weight"):
+        assert torch.equal(fusion.get_parameter(name) if "feature" not in name else fusion.get_buffer(name),
+                           other.get_parameter(name) if "feature" not in name else other.get_buffer(name)), name
+    assert not torch.equal(model.projector.linear_1.weight, shorter.projector.linear_1.weight)

@@ -52,8 +52,13 @@ class TactileEncoderConfig:
     """Most videos of one prompt that see each other through ``CrossVideoFusion`` (one attention layer over all of a
     prompt's video tokens, in the projector; 0 = off): the tokens can then carry how the videos compare. Trains with
     the projector in Stages I and II (Stage I only reaches it with ``data.stage1_comparisons``); docs/training.md."""
-    cross_video_loss: float = 1.0
-    """Weight of the cross-video comparator's cross-entropy (which video the comparison picks) in the training loss."""
+    cross_video_attributes: tuple[str, ...] = ("hardness", "protrusion", "elasticity", "friction", "roughness",
+                                               "bumpiness")
+    """The attributes the cross-video comparator keeps a direction for (the comparisons' ``gold.attribute``)."""
+    cross_video_loss: float = 0.0
+    """Weight of the comparator's losses (pick, attribute, comparative) in Stage I's training loss. 0: the comparator
+    is only fitted, on the frozen encoder's features, when Stage II starts (``train.comparator``); trained jointly
+    at 1.0 it held Stage I's loss at 1.0–1.8 (0.23 without) and still did not learn to pick (docs/training.md)."""
     video_labels: bool = False
     """Prompts holding several videos name each before its tokens ("Video 2: "), as the reasoning names them: the
     LLM can then find a video's tokens by its name (the processor's job; kept here so a saved model keeps it)."""
@@ -61,6 +66,7 @@ class TactileEncoderConfig:
     def __post_init__(self) -> None:
         self.image_size = tuple(int(v) for v in self.image_size)  # type: ignore[assignment]
         self.sensor_types = tuple(str(s) for s in self.sensor_types)
+        self.cross_video_attributes = tuple(str(a) for a in self.cross_video_attributes)
         self.validate()
 
     # ------------------------------------------------------------------ derived sizes
@@ -114,6 +120,8 @@ class TactileEncoderConfig:
             raise ValueError(f"encoder config: video_labels must be true or false, got {self.video_labels!r}")
         if not self.sensor_types:
             raise ValueError("encoder config: sensor_types must not be empty")
+        if not self.cross_video_attributes:
+            raise ValueError("encoder config: cross_video_attributes must not be empty")
 
     def sensor_index(self, sensor: str | None) -> int:
         """Index into ``sensor_types``; ``mini+markers``/``digit@30`` map to their base style, others to 0."""
@@ -124,6 +132,7 @@ class TactileEncoderConfig:
         out = dataclasses.asdict(self)
         out["image_size"] = list(self.image_size)
         out["sensor_types"] = list(self.sensor_types)
+        out["cross_video_attributes"] = list(self.cross_video_attributes)
         return out
 
     @classmethod

@@ -79,7 +79,7 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         enc = self.encoder_config
         self.projector = TactileProjector(enc.hidden_size, config.text_hidden_size, enc.video_slots, enc.cross_video,
                                           enc.fusion_heads, enc.mlp_ratio, config.text_hidden_size,
-                                          enc.tokens_per_video)
+                                          enc.tokens_per_video, len(enc.cross_video_attributes))
         self.post_init()
 
     # ------------------------------------------------------------------ HF plumbing
@@ -131,12 +131,20 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
 
     # ------------------------------------------------------------------ the tactile path
     def question_vectors(self, input_ids: torch.Tensor, text_embeds: torch.Tensor,
-                         attention_mask: torch.Tensor | None, question_mask: torch.Tensor | None) -> torch.Tensor:
-        """Mean input embedding of each sample's question tokens (B×H), the temporal branch's steer."""
+                         attention_mask: torch.Tensor | None, question_mask: torch.Tensor | None,
+                         pretrained_only: bool = False) -> torch.Tensor:
+        """Mean input embedding of each sample's question tokens (B×H), the temporal branch's steer.
+        ``pretrained_only``: over the tokens the LLM came with (not ``new_token_ids``, whose rows Stage II trains),
+        for the cross-video comparator, which is fitted when Stage II starts and must read its questions the same
+        way at its end (with a tiny LLM most question tokens are new rows: the comparator misread 88 of 150 test
+        attributes after Stage II; docs/training.md)."""
         if question_mask is None:  # fall back to every real, non-tactile token
             question_mask = input_ids != self.config.tactile_token_id
             if attention_mask is not None:
                 question_mask = question_mask & attention_mask.bool()
+        if pretrained_only and self.config.new_token_ids:
+            new = torch.tensor(self.config.new_token_ids, device=input_ids.device)
+            question_mask = question_mask.bool() & ~torch.isin(input_ids, new)
         weights = question_mask.to(text_embeds.dtype).unsqueeze(-1)
         return (text_embeds * weights).sum(1) / weights.sum(1).clamp(min=1.0)
 
@@ -158,11 +166,13 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         """Text embeddings with each video's tactile embeddings written over its placeholder run."""
         return self._embed(input_ids, pixel_values, attention_mask, question_mask, sensor_ids, appearance_tokens)[0]
 
-    def _embed(self, input_ids: torch.Tensor, pixel_values: torch.Tensor | None, attention_mask: torch.Tensor | None,
-               question_mask: torch.Tensor | None, sensor_ids: torch.Tensor | None,
-               appearance_tokens: torch.Tensor | None, video_winner: torch.Tensor | None = None,
-               ) -> tuple[torch.Tensor, torch.Tensor | None]:
-        """:meth:`embed_inputs` plus the cross-video comparator's loss against ``video_winner`` (None without)."""
+    def tactile_features(self, input_ids: torch.Tensor, pixel_values: torch.Tensor | None,
+                         attention_mask: torch.Tensor | None, question_mask: torch.Tensor | None,
+                         sensor_ids: torch.Tensor | None, appearance_tokens: torch.Tensor | None = None,
+                         ) -> tuple[torch.Tensor, torch.Tensor | None, torch.Tensor, torch.Tensor | None]:
+        """The text embeddings, the tactile encoder's output (V×tokens_per_video×hidden, None without videos), each
+        prompt's number of videos and the cross-video layer's question vector (None without one): what the
+        projector gets."""
         tpv = self.encoder_config.tokens_per_video
         per_sample = count_videos(input_ids, self.config.tactile_token_id, tpv)
         n_placeholders, n_videos = int(per_sample.sum()), 0 if pixel_values is None else len(pixel_values)
@@ -171,19 +181,31 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
                              f"({n_placeholders * tpv} tokens at {tpv} per video) but {n_videos} video(s) were given")
         text_embeds = self.get_input_embeddings()(input_ids)
         if n_videos == 0:
-            return text_embeds, None
-        question = per_sample_q = None
-        if self.encoder_config.cross_video or (self.encoder_config.use_temporal
-                                               and self.encoder_config.question_conditioning):
-            per_sample_q = self.question_vectors(input_ids, text_embeds, attention_mask, question_mask)
+            return text_embeds, None, per_sample, None
+        question = compared = None
         if self.encoder_config.use_temporal and self.encoder_config.question_conditioning:
-            question = per_sample_q.repeat_interleave(per_sample, dim=0)
+            question = self.question_vectors(input_ids, text_embeds, attention_mask, question_mask)
+            question = question.repeat_interleave(per_sample, dim=0)
+        if self.encoder_config.cross_video:
+            compared = self.question_vectors(input_ids, text_embeds, attention_mask, question_mask,
+                                             pretrained_only=True)
+        features = self.tactile_encoder(pixel_values.to(text_embeds.dtype), question, sensor_ids, appearance_tokens)
+        return text_embeds, features, per_sample, compared
+
+    def _embed(self, input_ids: torch.Tensor, pixel_values: torch.Tensor | None, attention_mask: torch.Tensor | None,
+               question_mask: torch.Tensor | None, sensor_ids: torch.Tensor | None,
+               appearance_tokens: torch.Tensor | None, video_winner: torch.Tensor | None = None,
+               ) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """:meth:`embed_inputs` plus the cross-video comparator's loss against ``video_winner`` (None without)."""
+        text_embeds, features, per_sample, compared = self.tactile_features(
+            input_ids, pixel_values, attention_mask, question_mask, sensor_ids, appearance_tokens)
+        if features is None:
+            return text_embeds, None
         slots = None
         if self.projector.video_slot is not None:  # each video's place in its own prompt: 0, 1, … per sample
             first = (per_sample.cumsum(0) - per_sample).repeat_interleave(per_sample)
-            slots = torch.arange(n_videos, device=input_ids.device) - first
-        features = self.tactile_encoder(pixel_values.to(text_embeds.dtype), question, sensor_ids, appearance_tokens)
-        tactile, comparison_loss = self.projector.project(features, slots, per_sample, per_sample_q, video_winner)
+            slots = torch.arange(len(features), device=input_ids.device) - first
+        tactile, comparison_loss = self.projector.project(features, slots, per_sample, compared, video_winner)
         mask = (input_ids == self.config.tactile_token_id).unsqueeze(-1)
         embeds = text_embeds.masked_scatter(mask, tactile.to(text_embeds.dtype).reshape(-1, text_embeds.shape[-1]))
         return embeds, comparison_loss
@@ -197,7 +219,9 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
                 appearance_tokens: torch.Tensor | None = None, video_winner: torch.Tensor | None = None,
                 **kwargs: Any) -> CausalLMOutputWithPast:
         """``appearance_tokens`` (optional, V×tokens_per_video×hidden): cached output of the frozen ViT.
-        ``video_winner`` (optional, B): per prompt the place of the video its comparison picks (−100: none); with
+        ``video_winner`` (optional, B or B×3): per prompt the place of the video its comparison picks, and
+        optionally the index of its attribute in ``encoder.cross_video_attributes`` and whether it asks for more (1)
+        or less (0) (−100: none); with
         ``encoder.cross_video`` and labels, the comparator's cross-entropy × ``encoder.cross_video_loss`` joins the
         loss."""
         comparison_loss = None

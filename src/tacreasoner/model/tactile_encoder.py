@@ -51,23 +51,30 @@ class CrossVideoFusion(nn.Module):
     (``VideoSlots``); yet a linear read-out of the tokens orders two objects far better than the LLM does
     (benchmarks/results/tactile_readout.md). Here the tokens of a prompt's 2..``max_videos`` videos, each with its
     place embedding, and the question vector as one more token, pass one transformer layer. A score per video (its
-    tokens along a direction the question picks) gives a distribution over the videos ("which is softer?"),
-    trained against the gold pick when the batch has one (``winner``); its expectation over learned per-place
+    standardised tokens along the direction of the attribute the question names, signed by its comparative, both
+    read from the question vector) gives a distribution over the videos ("which is softer?"), trained against the
+    gold pick, attribute and comparative when the batch has them (``winner``); its expectation over learned per-place
     vectors is added to every token, so the LLM reads the verdict the way it reads one video's feel, by attending
     to all tactile tokens. What the layer adds goes through zero-initialised maps, so single-video prompts and an
     untrained layer leave tokens unchanged. It sits in the projector, so it trains in both stages.
     """
 
     def __init__(self, hidden: int, heads: int, mlp_ratio: float, max_videos: int, question_dim: int,
-                 tokens_per_video: int) -> None:
+                 tokens_per_video: int, attributes: int = 1) -> None:
         super().__init__()
         self.place = nn.Parameter(torch.randn(max_videos, hidden) * 0.02)
         self.verdict = nn.Parameter(torch.zeros(max_videos, hidden))
         self.question = nn.Sequential(nn.LayerNorm(question_dim), nn.Linear(question_dim, hidden))
         self.layer = nn.TransformerEncoderLayer(hidden, heads, dim_feedforward=int(hidden * mlp_ratio), dropout=0.0,
                                                 activation="gelu", batch_first=True, norm_first=True)
-        self.direction = nn.Sequential(nn.LayerNorm(question_dim), nn.Linear(question_dim, tokens_per_video * hidden))
-        self.score_norm = nn.LayerNorm(tokens_per_video * hidden)
+        width = tokens_per_video * hidden
+        # the comparator: which attribute and which way the question asks (read from the question vector), one
+        # direction per attribute over a video's standardised tokens (benchmarks/results/comparator_probe.md)
+        self.attribute = nn.Sequential(nn.LayerNorm(question_dim), nn.Linear(question_dim, attributes))
+        self.comparative = nn.Sequential(nn.LayerNorm(question_dim), nn.Linear(question_dim, 1))
+        self.directions = nn.Parameter(torch.zeros(attributes, width))
+        self.register_buffer("feature_mean", torch.zeros(width))
+        self.register_buffer("feature_var", torch.ones(width))
         self.out = nn.Linear(hidden, hidden)
         self.out.zero_init = True  # read by the model's _init_weights too
         nn.init.zeros_(self.out.weight)
@@ -79,13 +86,122 @@ class CrossVideoFusion(nn.Module):
 
     @property
     def question_dim(self) -> int:
-        return self.direction[0].normalized_shape[0]
+        return self.attribute[0].normalized_shape[0]
+
+    def _standardised(self, videos: torch.Tensor) -> torch.Tensor:
+        """Per-dimension standardisation (as the probe's); the statistics follow the features only while the
+        comparator trains by gradient (``encoder.cross_video_loss``), :meth:`fit` sets them exactly."""
+        if self.training and self.directions.requires_grad:
+            with torch.no_grad():
+                flat = videos.detach().flatten(0, -2).float()
+                self.feature_mean.lerp_(flat.mean(0), 0.01)
+                self.feature_var.lerp_(flat.var(0, unbiased=False) if len(flat) > 1 else self.feature_var, 0.01)
+        return self._normalised(videos)
+
+    def _normalised(self, videos: torch.Tensor) -> torch.Tensor:
+        return (videos - self.feature_mean.to(videos.dtype)) / (self.feature_var.to(videos.dtype) + 1e-5).sqrt()
+
+    def _compare(self, videos: torch.Tensor, asked: torch.Tensor
+                 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """videos S×k×W (standardised), asked S×Dq → each video's score (S×k: its features along the direction of
+        the attribute asked, signed by the comparative, more: +, less: −), the attribute logits and the
+        comparative's logit (more). The attribute and the way are discrete choices: a blend of directions, mapped
+        from the question, fitted the train questions but not unseen objects (comparator_probe.md)."""
+        attribute_logits, more_logit = self.attribute(asked), self.comparative(asked).squeeze(-1)
+        sign = torch.where(more_logit >= 0, 1.0, -1.0).to(asked.dtype).unsqueeze(-1)
+        direction = sign * self.directions.to(asked.dtype)[attribute_logits.argmax(-1)]
+        scores = (videos @ direction.unsqueeze(-1)).squeeze(-1) / videos.shape[-1] ** 0.5
+        return scores, attribute_logits, more_logit
+
+    @staticmethod
+    def _comparison_loss(scores: torch.Tensor, attribute_logits: torch.Tensor, more_logit: torch.Tensor,
+                         gold: torch.Tensor) -> tuple[torch.Tensor, int]:
+        """Summed cross-entropies of the pick, the attribute and the comparative where ``gold`` (S or S×3) knows
+        them, and the number of prompts with a pick."""
+        if gold.ndim == 1:
+            gold = torch.stack([gold, torch.full_like(gold, -100), torch.full_like(gold, -100)], dim=1)
+        loss = scores.new_zeros((), dtype=torch.float32)
+        valid, named, way = gold[:, 0] >= 0, gold[:, 1] >= 0, gold[:, 2] >= 0
+        if bool(valid.any()):
+            loss = loss + F.cross_entropy(scores[valid].float(), gold[valid, 0], reduction="sum")
+        if bool(named.any()):
+            loss = loss + F.cross_entropy(attribute_logits[named].float(), gold[named, 1], reduction="sum")
+        if bool(way.any()):
+            loss = loss + F.binary_cross_entropy_with_logits(more_logit[way].float(), gold[way, 2].float(),
+                                                             reduction="sum")
+        return loss, int(valid.sum())
+
+    @property
+    def comparator_parameters(self) -> list[nn.Parameter]:
+        return [*self.attribute.parameters(), *self.comparative.parameters(), self.directions]
+
+    def fit(self, videos: list[torch.Tensor], questions: torch.Tensor, targets: torch.Tensor, steps: int = 1500,
+            lr: float = 1e-2, weight_decay: float = 0.1, batch_size: int = 16, seed: int = 0) -> dict[str, float]:
+        """Fit the comparator on fixed features, then freeze it: a pick learnt jointly with the LLM's loss drowns
+        that loss and does not learn to pick (docs/training.md), while on the frozen encoder's features the same
+        comparator, fitted alone, orders unseen objects (benchmarks/results/comparator_probe.md).
+
+        ``videos``: per prompt its k×N×H encoder output (k ≥ 2); ``questions``: S×Dq question vectors;
+        ``targets``: S×3 gold pick, attribute index, more (1) / less (0). The two heads that read the attribute and
+        the way from the question are ridge regressions (closed form); the directions are fitted by AdamW on the
+        picks. Returns the fitted comparator's accuracy on these prompts (pick, attribute read, comparative read)."""
+        if not videos:
+            raise ValueError("the comparator needs at least one comparison to fit")
+        if len(videos) != len(questions) or len(videos) != len(targets):
+            raise ValueError(f"got {len(videos)} prompts' videos, {len(questions)} questions, {len(targets)} targets")
+        dtype = self.directions.dtype
+        flat = torch.cat([v.flatten(1) for v in videos]).float()
+        with torch.no_grad():
+            self.feature_mean.copy_(flat.mean(0))
+            self.feature_var.copy_(flat.var(0, unbiased=False))
+            self.directions.zero_()
+            named, way = targets[:, 1] >= 0, targets[:, 2] >= 0
+            if bool(named.any()):
+                _ridge(self.attribute, questions[named], F.one_hot(targets[named, 1], self.directions.shape[0]))
+            if bool(way.any()):
+                _ridge(self.comparative, questions[way], targets[way, 2:3] * 2.0 - 1.0)
+        groups: dict[int, list[int]] = {}
+        for i, v in enumerate(videos):
+            groups.setdefault(len(v), []).append(i)
+        stacked = {k: (self._normalised(torch.stack([videos[i].flatten(1) for i in rows]).to(dtype)),
+                       questions[rows].to(dtype), targets[rows]) for k, rows in groups.items()}
+        place = {i: (k, r) for k, rows in groups.items() for r, i in enumerate(rows)}
+        for p in self.comparator_parameters:
+            p.requires_grad_(False)
+        self.directions.requires_grad_(True)
+        optimizer = torch.optim.AdamW([self.directions], lr=lr, weight_decay=weight_decay)
+        generator = torch.Generator().manual_seed(seed)
+        with torch.enable_grad():
+            for _ in range(steps):
+                batch = torch.randint(0, len(videos), (batch_size,), generator=generator).tolist()
+                loss = torch.zeros(())
+                for k, (feats, asked, gold) in stacked.items():
+                    rows = [place[i][1] for i in batch if place[i][0] == k]
+                    if rows:
+                        loss = loss + self._comparison_loss(*self._compare(feats[rows], asked[rows]), gold[rows])[0]
+                optimizer.zero_grad()
+                (loss / batch_size).backward()
+                optimizer.step()
+        self.directions.requires_grad_(False)
+        with torch.no_grad():  # the verdict starts as loud as a token (it stayed at 3% of one, unread, from zero)
+            scale = flat.view(-1, self.verdict.shape[1]).pow(2).sum(-1).mean().sqrt() / self.verdict.shape[1] ** 0.5
+            self.verdict.copy_(torch.randn(self.verdict.shape, generator=generator) * scale)
+        right = {"pick": 0, "attribute": 0, "comparative": 0}
+        with torch.no_grad():
+            for feats, asked, gold in stacked.values():
+                scores, attribute_logits, more_logit = self._compare(feats, asked)
+                right["pick"] += int((scores.argmax(-1) == gold[:, 0]).sum())
+                right["attribute"] += int((attribute_logits.argmax(-1) == gold[:, 1]).sum())
+                right["comparative"] += int(((more_logit > 0).long() == gold[:, 2]).sum())
+        return {"comparisons": len(videos), **{k: v / len(videos) for k, v in right.items()}}
 
     def forward(self, tokens: torch.Tensor, per_sample: torch.Tensor, question: torch.Tensor | None,
                 winner: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor | None]:
         """tokens V×N×H (all prompts' videos in order), per_sample B (videos per prompt), question B×Dq or None,
-        winner B (the gold pick's place, −100 where none). Returns the tokens and the comparator's mean
-        cross-entropy over the prompts with a pick (None when there is none)."""
+        winner B or B×3: per prompt the gold pick's place, and optionally the attribute's index and whether the
+        question asks for more (1) or less (0); −100 where unknown. Returns the tokens and the comparator's loss:
+        the mean over prompts with a pick of its cross-entropy, plus those of the attribute and the comparative
+        where known (None when the batch has no pick)."""
         counts = per_sample.tolist()
         if max(counts, default=0) > self.max_videos:
             raise ValueError(f"a prompt holds {max(counts)} videos but the cross-video layer was built for at most "
@@ -103,20 +219,29 @@ class CrossVideoFusion(nn.Module):
             q = self.question(asked.to(tokens.dtype))  # S×H: what the question asks about, and which way
             seq = torch.cat([q.unsqueeze(1), seq], dim=1)
             mixed = self.layer(seq)[:, -k * n:]
-            # each video's score: its tokens along the question's direction (a read-out per attribute and
-            # comparative, as the linear read-out in tactile_readout.md, but chosen by the question)
-            videos = self.score_norm(tokens[index].view(len(samples), k, n * hidden))
-            scores = (videos @ self.direction(asked.to(tokens.dtype)).unsqueeze(-1)).squeeze(-1) / (n * hidden) ** 0.5
+            videos = self._standardised(tokens[index].view(len(samples), k, n * hidden))
+            scores, attribute_logits, more_logit = self._compare(videos, asked.to(tokens.dtype))
             verdict = scores.softmax(-1) @ self.verdict[:k].to(tokens.dtype)  # S×H
             delta = self.out(mixed - seq[:, -k * n:]) + verdict.unsqueeze(1)
             out[index] = tokens[index] + delta.reshape(len(samples) * k, n, hidden)
             if winner is not None:
-                gold = winner[samples]
-                valid = gold >= 0
-                if bool(valid.any()):
-                    loss_sum = loss_sum + F.cross_entropy(scores[valid].float(), gold[valid], reduction="sum")
-                    picks += int(valid.sum())
+                loss, count = self._comparison_loss(scores, attribute_logits, more_logit, winner[samples])
+                loss_sum, picks = loss_sum + loss, picks + count
         return out, (loss_sum / picks if picks else None)
+
+
+def _ridge(head: nn.Sequential, questions: torch.Tensor, targets: torch.Tensor, penalty: float = 10.0) -> None:
+    """Set ``head`` (LayerNorm → Linear) to the ridge regression of ``targets`` on its normalised, per-dimension
+    standardised inputs: closed form, and it names unseen questions' attribute where a gradient-fitted map of the
+    same vectors over-fits the templates it saw (150 of 150 in comparator_probe.md)."""
+    norm, linear = head[0], head[1]
+    x = norm(questions.to(linear.weight.dtype)).double()
+    mean, std = x.mean(0), x.std(0) + 1e-6
+    z = (x - mean) / std
+    y = targets.double()
+    w = torch.linalg.solve(z.T @ z + penalty * torch.eye(z.shape[1], dtype=z.dtype), z.T @ (y - y.mean(0)))
+    linear.weight.copy_((w / std[:, None]).T.to(linear.weight.dtype))
+    linear.bias.copy_((y.mean(0) - (mean / std) @ w).to(linear.bias.dtype))
 
 
 class VideoSlots(nn.Module):
@@ -158,10 +283,11 @@ class TactileProjector(nn.Module):
     :class:`CrossVideoFusion` when asked; both train with the projector in Stages I and II)."""
 
     def __init__(self, in_dim: int, out_dim: int, video_slots: int = 0, cross_video: int = 0,
-                 heads: int = 4, mlp_ratio: float = 4.0, question_dim: int = 0, tokens_per_video: int = 1) -> None:
+                 heads: int = 4, mlp_ratio: float = 4.0, question_dim: int = 0, tokens_per_video: int = 1,
+                 attributes: int = 1) -> None:
         super().__init__()
         self.cross_video = CrossVideoFusion(in_dim, heads, mlp_ratio, cross_video, question_dim or in_dim,
-                                            tokens_per_video) if cross_video else None
+                                            tokens_per_video, attributes) if cross_video else None
         self.linear_1 = nn.Linear(in_dim, out_dim)
         self.act = nn.GELU()
         self.linear_2 = nn.Linear(out_dim, out_dim)

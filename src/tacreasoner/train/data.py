@@ -54,6 +54,18 @@ class TrainExample:
     """(absolute video path, segment start, segment end) per ``<tactile>``, in order."""
     winner: int = IGNORE_INDEX
     """SFD/SOI: the place (0-based) of the video the question picks, for ``encoder.cross_video``'s comparator."""
+    attribute: str = ""
+    """SFD/SOI: the attribute compared."""
+    more: int = IGNORE_INDEX
+    """SFD/SOI: 1 when the question asks for more of it (harder, the most elastic), 0 for less."""
+
+
+def comparison_target(item: QAItem) -> dict[str, Any]:
+    """An SFD/SOI item's comparator targets (``winner``, ``attribute``, ``more``); empty for other tasks."""
+    if item.task not in COMPARISON_TASKS:
+        return {}
+    return {"winner": comparison_winner(item), "attribute": str(item.gold["attribute"]),
+            "more": int(item.gold["direction"] in ("more", "most"))}
 
 
 def comparison_winner(item: QAItem) -> int:
@@ -91,13 +103,13 @@ def bench_video_root(bench_dir: Path, info: dict) -> Path:
 def _from_items(items: Sequence[QAItem], root: Path, target: Callable[[QAItem], str]) -> list[TrainExample]:
     return [TrainExample(key=item.id, task=item.task, question=item.question, target=target(item),
                          videos=tuple(video_key(v, root, f"item {item.id!r}") for v in item.videos),
-                         winner=comparison_winner(item))
+                         **comparison_target(item))
             for item in items]
 
 
 def _touchcot(path: Path, root: Path, items: Sequence[QAItem] = ()) -> list[TrainExample]:
     """TouchCoT records; ``items`` (the benchmark's train split) gives comparisons their gold pick."""
-    winners = {i.id: comparison_winner(i) for i in items}
+    targets = {i.id: comparison_target(i) for i in items}
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no TouchCoT training file (run `tacreasoner build-cot`, or set "
                                 f"data.stage2_data: plain)")
@@ -114,7 +126,7 @@ def _touchcot(path: Path, root: Path, items: Sequence[QAItem] = ()) -> list[Trai
                 out.append(TrainExample(key=str(record["id"]), task=str(record["task"]),
                                         question=str(record["question"]), target=str(record["output"]),
                                         videos=tuple(video_key(r, root, where) for r in refs),
-                                        winner=winners.get(str(record.get("item_id")), IGNORE_INDEX)))
+                                        **targets.get(str(record.get("item_id")), {})))
             except (json.JSONDecodeError, KeyError, TypeError) as exc:
                 raise ValueError(f"{where}: not a TouchCoT training record ({type(exc).__name__}: {exc}); "
                                  f"expected id, task, question, videos, output") from None
@@ -175,6 +187,8 @@ class Tokenized:
     videos: tuple[VideoKey, ...]
     key: str
     winner: int = IGNORE_INDEX
+    attribute: str = ""
+    more: int = IGNORE_INDEX
 
     @property
     def n_labels(self) -> int:
@@ -191,7 +205,8 @@ def tokenize_examples(processor: Any, examples: Sequence[TrainExample], max_leng
         if len(enc.input_ids) > max_length:
             dropped.append(e.key)
             continue
-        kept.append(Tokenized(enc.input_ids, enc.labels, enc.question_mask, e.videos, e.key, e.winner))
+        kept.append(Tokenized(enc.input_ids, enc.labels, enc.question_mask, e.videos, e.key, e.winner, e.attribute,
+                              e.more))
     return kept, dropped
 
 
@@ -277,16 +292,25 @@ class VideoBank:
         return out
 
 
-def collate(processor: Any, examples: Sequence[Tokenized], bank: VideoBank) -> dict[str, Any]:
+def collate(processor: Any, examples: Sequence[Tokenized], bank: VideoBank,
+            attributes: Sequence[str] = ()) -> dict[str, Any]:
     """Right-padded ids/labels/masks plus the videos of every example, in order (what the model expects), and
-    each comparison's gold pick (``video_winner``, IGNORE_INDEX elsewhere) for the cross-video comparator."""
+    each comparison's targets for the cross-video comparator (``video_winner``, B×3: the gold pick, the index of
+    its attribute in ``attributes`` and whether it asks for more; IGNORE_INDEX where unknown)."""
     batch = processor.collate([{"input_ids": e.input_ids, "labels": e.labels, "question_mask": e.question_mask,
                                 "pixel_values": torch.zeros(0), "sensor_ids": torch.zeros(0, dtype=torch.long)}
                                for e in examples])
     batch = dict(batch)
     batch.update(bank.batch([k for e in examples for k in e.videos]))
-    batch["video_winner"] = torch.tensor([e.winner for e in examples], dtype=torch.long)
+    batch["video_winner"] = comparison_targets(examples, attributes)
     return batch
+
+
+def comparison_targets(examples: Sequence[Tokenized], attributes: Sequence[str]) -> torch.Tensor:
+    """B×3: each example's gold pick, its attribute's index in ``attributes`` and whether it asks for more."""
+    index = {a: i for i, a in enumerate(attributes)}
+    return torch.tensor([[e.winner, index.get(e.attribute, IGNORE_INDEX), e.more] for e in examples],
+                        dtype=torch.long)
 
 
 # ------------------------------------------------------------------------------------------ order

@@ -27,6 +27,8 @@ from tacreasoner.train.config import TrainConfig
 __all__ = ["QuickstartPaths", "distributed_config", "evaluate_seeds", "quickstart_config", "train_seed"]
 
 TINY_SETTINGS: dict[str, Any] = {
+    "model": {"encoder": {"use_temporal": True, "question_conditioning": True, "tokens_per_video": 5,
+                          "cross_video": 3}},
     "stage1": {"steps": 1800, "batch_size": 16, "lr": 1e-3, "warmup_ratio": 0.05},
     "stage2": {"steps": 1000, "batch_size": 8, "lr": 2e-3, "projector_lr": 1e-3, "warmup_ratio": 0.05},
     "lora": {"r": 128, "alpha": 256, "dropout": 0.05},
@@ -79,10 +81,14 @@ def quickstart_config(paths: QuickstartPaths, seed: int, overrides: dict[str, di
                             "model": {"llm": str(paths.llm), "appearance": str(paths.encoder)},
                             "data": {"bench": str(paths.bench), "touchcot": str(paths.touchcot),
                                      "video_cache": str(paths.video_cache)}}
-    for section, values in {**TINY_SETTINGS}.items():
-        data[section] = {**data.get(section, {}), **values}
-    for section, values in (overrides or {}).items():
-        data[section] = {**data.get(section, {}), **values} if isinstance(values, dict) else values
+    for section, values in [*TINY_SETTINGS.items(), *(overrides or {}).items()]:
+        if not isinstance(values, dict):
+            data[section] = values
+            continue
+        merged = {**data.get(section, {}), **values}
+        if section == "model" and "encoder" in values:  # an encoder switch keeps the other encoder settings
+            merged["encoder"] = {**data.get("model", {}).get("encoder", {}), **values["encoder"]}
+        data[section] = merged
     return TrainConfig.from_dict(data, source="quickstart settings")
 
 
