@@ -50,8 +50,9 @@ class TactileEncoderConfig:
     0 = none); at least the most videos one prompt may hold (3 on DynTAC-Sim-Bench)."""
     cross_video: int = 0
     """Most videos of one prompt that see each other through ``CrossVideoFusion`` (one attention layer over all of a
-    prompt's video tokens, in the projector; 0 = off): the tokens can then carry how the videos compare. Trains with
-    the projector in Stages I and II (Stage I only reaches it with ``data.stage1_comparisons``); docs/training.md."""
+    prompt's video tokens, in the projector; 0 = off), with a comparator whose pick is written into the tokens: they
+    then carry how the videos compare. The layer trains with the projector in Stages I and II; the comparator is
+    fitted when Stage II starts (``train.comparator``) and frozen; docs/training.md."""
     cross_video_attributes: tuple[str, ...] = ("hardness", "protrusion", "elasticity", "friction", "roughness",
                                                "bumpiness")
     """The attributes the cross-video comparator keeps a direction for (the comparisons' ``gold.attribute``)."""

@@ -52,11 +52,13 @@ class CrossVideoFusion(nn.Module):
     (benchmarks/results/tactile_readout.md). Here the tokens of a prompt's 2..``max_videos`` videos, each with its
     place embedding, and the question vector as one more token, pass one transformer layer. A score per video (its
     standardised tokens along the direction of the attribute the question names, signed by its comparative, both
-    read from the question vector) gives a distribution over the videos ("which is softer?"), trained against the
-    gold pick, attribute and comparative when the batch has them (``winner``); its expectation over learned per-place
-    vectors is added to every token, so the LLM reads the verdict the way it reads one video's feel, by attending
-    to all tactile tokens. What the layer adds goes through zero-initialised maps, so single-video prompts and an
-    untrained layer leave tokens unchanged. It sits in the projector, so it trains in both stages.
+    read from the question vector) gives a distribution over the videos ("which is softer?"); its expectation over
+    per-place verdict vectors is added to every token, so the LLM reads the verdict the way it reads one video's
+    feel, by attending to all tactile tokens. The comparator is fitted on fixed features when Stage II starts
+    (:meth:`fit`, which also makes the verdict vectors as loud as a token) and frozen; with
+    ``encoder.cross_video_loss`` it also trains against the gold pick, attribute and comparative in Stage I
+    (``winner``). Until then what the layer adds goes through zero-initialised maps, so single-video prompts and
+    an untrained layer leave tokens unchanged. It sits in the projector, so the layer trains in both stages.
     """
 
     def __init__(self, hidden: int, heads: int, mlp_ratio: float, max_videos: int, question_dim: int,
@@ -178,7 +180,9 @@ class CrossVideoFusion(nn.Module):
                 for k, (feats, asked, gold) in stacked.items():
                     rows = [place[i][1] for i in batch if place[i][0] == k]
                     if rows:
-                        loss = loss + self._comparison_loss(*self._compare(feats[rows], asked[rows]), gold[rows])[0]
+                        # the heads are fixed here: only the pick's cross-entropy moves the directions
+                        loss = loss + self._comparison_loss(*self._compare(feats[rows], asked[rows]),
+                                                            gold[rows, 0])[0]
                 optimizer.zero_grad()
                 (loss / batch_size).backward()
                 optimizer.step()
@@ -302,7 +306,8 @@ class TactileProjector(nn.Module):
     def project(self, features: torch.Tensor, slots: torch.Tensor | None = None,
                 per_sample: torch.Tensor | None = None, question: torch.Tensor | None = None,
                 winner: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor | None]:
-        """:meth:`forward` plus the cross-video comparator's loss against ``winner`` (B; None without one)."""
+        """:meth:`forward` plus the cross-video comparator's loss against ``winner`` (B or B×3; None without
+        one)."""
         comparison_loss = None
         if self.cross_video is not None:
             if per_sample is None:

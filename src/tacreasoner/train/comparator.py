@@ -16,6 +16,11 @@ import torch
 from tacreasoner.train.data import Tokenized, VideoBank, collate, comparison_targets
 
 
+def comparisons(examples: Sequence[Tokenized]) -> list[Tokenized]:
+    """The examples the comparator is fitted on: a gold pick among two or more videos."""
+    return [e for e in examples if e.winner >= 0 and len(e.videos) >= 2]
+
+
 def fit_comparator(model: Any, processor: Any, examples: Sequence[Tokenized], bank: VideoBank, seed: int,
                    progress: Callable[[int, int], None] | None = None, batch_size: int = 16) -> dict[str, Any]:
     """Fit ``model``'s comparator on the comparisons among ``examples`` (those with a gold pick and ≥ 2 videos)
@@ -24,7 +29,7 @@ def fit_comparator(model: Any, processor: Any, examples: Sequence[Tokenized], ba
     if fusion is None:
         raise ValueError("the model has no cross-video comparator (encoder.cross_video is 0)")
     attributes = model.encoder_config.cross_video_attributes
-    chosen = [e for e in examples if e.winner >= 0 and len(e.videos) >= 2]
+    chosen = comparisons(examples)
     if not chosen:
         for p in fusion.comparator_parameters:
             p.requires_grad_(False)
@@ -36,7 +41,7 @@ def fit_comparator(model: Any, processor: Any, examples: Sequence[Tokenized], ba
     with torch.no_grad():
         for start in range(0, len(chosen), batch_size):
             chunk = chosen[start:start + batch_size]
-            batch = collate(processor, chunk, bank, attributes)
+            batch = collate(processor, chunk, bank)
             _, features, per_sample, question = model.tactile_features(
                 batch["input_ids"], batch["pixel_values"], batch["attention_mask"], batch["question_mask"],
                 batch["sensor_ids"], batch.get("appearance_tokens"))

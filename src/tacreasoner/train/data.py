@@ -293,16 +293,17 @@ class VideoBank:
 
 
 def collate(processor: Any, examples: Sequence[Tokenized], bank: VideoBank,
-            attributes: Sequence[str] = ()) -> dict[str, Any]:
-    """Right-padded ids/labels/masks plus the videos of every example, in order (what the model expects), and
-    each comparison's targets for the cross-video comparator (``video_winner``, B×3: the gold pick, the index of
-    its attribute in ``attributes`` and whether it asks for more; IGNORE_INDEX where unknown)."""
+            attributes: Sequence[str] | None = None) -> dict[str, Any]:
+    """Right-padded ids/labels/masks plus the videos of every example, in order (what the model expects); given
+    the comparator's ``attributes``, also each comparison's targets for it (``video_winner``, B×3: the gold pick,
+    the index of its attribute in ``attributes`` and whether it asks for more; IGNORE_INDEX where unknown)."""
     batch = processor.collate([{"input_ids": e.input_ids, "labels": e.labels, "question_mask": e.question_mask,
                                 "pixel_values": torch.zeros(0), "sensor_ids": torch.zeros(0, dtype=torch.long)}
                                for e in examples])
     batch = dict(batch)
     batch.update(bank.batch([k for e in examples for k in e.videos]))
-    batch["video_winner"] = comparison_targets(examples, attributes)
+    if attributes is not None:
+        batch["video_winner"] = comparison_targets(examples, attributes)
     return batch
 
 

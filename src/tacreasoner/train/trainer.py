@@ -31,7 +31,7 @@ from typing import Any
 
 import torch
 
-from tacreasoner.train.comparator import fit_comparator
+from tacreasoner.train.comparator import comparisons, fit_comparator
 from tacreasoner.train.config import TrainConfig
 from tacreasoner.train.data import VideoBank, batch_plan, collate, load_examples, tokenize_examples
 from tacreasoner.train.progress import StageBar
@@ -223,7 +223,6 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
         model.language_model.gradient_checkpointing_enable(gradient_checkpointing_kwargs={"use_reentrant": False})
     trained = configure_stage(model, stage, config.lora)
     base = model  # the TacReasonerForCausalLM inside (PEFT wraps it in Stage II)
-    attributes = base.encoder_config.cross_video_attributes  # the comparator's attribute indices
 
     examples = load_examples(stage, config.data.bench, touchcot=config.data.touchcot,
                              stage2_data=config.data.stage2_data, tasks=config.data.tasks,
@@ -240,11 +239,13 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
         bank.cache_appearance(base.tactile_encoder)
     comparator = None
     if stage == 2 and base.projector.cross_video is not None:  # encoder frozen from here: fit, then freeze
-        bar.stage("fitting comparator", sum(1 for e in tokenized if e.winner >= 0 and len(e.videos) >= 2))
+        bar.stage("fitting comparator", len(comparisons(tokenized)))
         comparator = fit_comparator(base, processor, tokenized, bank, config.seed,
                                     progress=lambda done, _total: bar.update(done))
-    # the comparator trains with the LLM's loss only in Stage I and only when asked (encoder.cross_video_loss)
-    pass_winner = stage == 1 and base.encoder_config.cross_video_loss > 0
+    # the comparator trains with the LLM's loss only in Stage I and only when asked (encoder.cross_video_loss):
+    # only then do the batches carry its targets
+    attributes = (base.encoder_config.cross_video_attributes
+                  if stage == 1 and base.encoder_config.cross_video_loss > 0 else None)
 
     world = accelerator.num_processes
     global_batch = settings.batch_size * settings.grad_accum * world
@@ -309,8 +310,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
         step_loss = torch.zeros((), device=accelerator.device)
         for m, chunk in enumerate(micro):
             batch = {k: v.to(accelerator.device) if torch.is_tensor(v) else v
-                     for k, v in collate(processor, [tokenized[i] for i in chunk], bank, attributes).items()
-                     if k != "video_winner" or pass_winner}
+                     for k, v in collate(processor, [tokenized[i] for i in chunk], bank, attributes).items()}
             sync = m == len(micro) - 1
             ctx = accelerator.no_sync(trained) if not sync and world > 1 else nullcontext()
             with ctx, accelerator.autocast():
