@@ -17,6 +17,7 @@ Variants (Table 3: DynEncoder × CoT-SFT; Table 4: training stages; plus the enc
     cls_only       1 tactile token per video (the paper's CLS-only mode) instead of 5
     no_cross       no cross-video layer and comparator: each video of a comparison encoded alone (the default
                    before the ninth session)
+    no_names       the cross-video layer without its name matcher (OSC prompts get the comparator's pick)
     plain_hardness_only  diagnostic (not in the paper, not run by default): Stage II on plain TFA-hardness only
     plain_tfa_only       diagnostic (not run by default): both stages on the four TFA attributes only, Stage II
                          on plain answers, 1200 steps (~300 per attribute)
@@ -47,6 +48,7 @@ VARIANTS: dict[str, dict] = {
     "no_qcond": {"model": {"encoder": {"question_conditioning": False}}},
     "cls_only": {"model": {"encoder": {"tokens_per_video": 1}}},
     "no_cross": {"model": {"encoder": {"cross_video": 0}}},
+    "no_names": {"model": {"encoder": {"cross_video_names": False}}},
     # diagnostic, not in the paper: is the LLM side able to learn one attribute when it sees only that task?
     "plain_hardness_only": {"data": {"stage2_data": "plain", "tasks": ["TFA-hardness"]}},
     # diagnostic: do the four attribute questions interfere with each other, or do the other tasks?
@@ -64,6 +66,7 @@ DESCRIPTIONS = {
     "no_qcond": "temporal pooling ignores the question",
     "cls_only": "1 token per video (CLS only)",
     "no_cross": "no cross-video comparator",
+    "no_names": "no name matcher (OSC)",
     "plain_hardness_only": "diagnostic: Stage II on plain TFA-hardness answers only",
     "plain_tfa_only": "diagnostic: Stage II on plain answers of the four TFA attributes, 1200 steps",
 }

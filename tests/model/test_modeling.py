@@ -8,9 +8,11 @@ import sys
 
 import pytest
 import torch
-from tinymodel import ENCODER, TACTILE_ID, batch, prompt, tiny_model, videos
+from tinymodel import ENCODER, TACTILE_ID, TEXT_CONFIG, batch, prompt, tiny_model, videos
 
 from tacreasoner.model.modeling import TacReasonerForCausalLM
+
+TEXT_HIDDEN = TEXT_CONFIG["hidden_size"]
 
 
 @pytest.mark.parametrize("tokens_per_video", [1, 3])
@@ -254,14 +256,106 @@ def test_the_comparator_reads_its_question_from_the_llm_s_own_rows_only() -> Non
                                         pretrained_only=True)
     kept = [11, 14, *range(20, 22), 30, 31]  # every real, non-tactile token but the new rows
     torch.testing.assert_close(pretrained[0], embed.weight[kept].mean(0))
-    _, _, per_sample, compared = model.tactile_features(inputs["input_ids"], videos(2), inputs["attention_mask"],
-                                                        None, None)
+    _, _, per_sample, compared, _ = model.tactile_features(inputs["input_ids"], videos(2), inputs["attention_mask"],
+                                                           None, None)
     with torch.no_grad():
         embed.weight[12:14] += 5.0
-    _, _, _, moved = model.tactile_features(inputs["input_ids"], videos(2), inputs["attention_mask"], None, None)
+    _, _, _, moved, _ = model.tactile_features(inputs["input_ids"], videos(2), inputs["attention_mask"], None, None)
     assert per_sample.tolist() == [2] and torch.equal(compared, moved)
     assert tiny_model().tactile_features(inputs["input_ids"], videos(2), inputs["attention_mask"], None,
                                          None)[3] is None  # nothing reads it without the cross-video layer
+
+
+def _namings(n: int, k: int, gen: torch.Generator, names: int = 6, tokens: int = 2, hidden: int = 8,
+             question_dim: int = 6) -> tuple[list[torch.Tensor], list[torch.Tensor], torch.Tensor, torch.Tensor]:
+    """Prompts of k videos of k different named objects (each name: a feature prototype and a name vector), listing
+    the names as options in random order; the gold option of each video; and the names' vectors."""
+    proto = torch.randn(names, tokens, hidden, generator=torch.Generator().manual_seed(1))
+    vectors = torch.randn(names, question_dim, generator=torch.Generator().manual_seed(2))
+    feats, options, gold = [], [], []
+    for _ in range(n):
+        chosen = torch.randperm(names, generator=gen)[:k]
+        order = torch.randperm(k, generator=gen)  # option o names object chosen[order[o]]
+        feats.append(proto[chosen] + torch.randn(k, tokens, hidden, generator=gen) * 0.3)
+        options.append(vectors[chosen[order]])
+        gold.append(torch.argsort(order))  # video v's object sits at option argsort(order)[v]
+    return feats, options, torch.stack(gold), vectors
+
+
+def test_name_matcher_assigns_unseen_prompts_and_replaces_the_pick_there_only() -> None:
+    from tacreasoner.model.tactile_encoder import CrossVideoFusion
+
+    fusion = CrossVideoFusion(8, 2, 2.0, 3, 6, tokens_per_video=2, attributes=2).eval()
+    gen = torch.Generator().manual_seed(0)
+    feats, options, gold, _ = _namings(120, 3, gen)
+    fitted = fusion.fit_names(feats, options, gold)
+    assert fitted["named"] == 120 and fitted["assigned"] > 0.9
+    assert fusion.names_fitted.tolist() == [False, False, False, True]  # fitted for three videos only
+    assert not any(p.requires_grad for p in fusion.names.parameters()) and fusion.assignments.requires_grad
+    test_feats, test_options, test_gold, _ = _namings(60, 3, gen)
+    perms = fusion._permutations[3]
+    chosen = fusion._match(torch.stack([f.flatten(1) for f in test_feats]), torch.stack(test_options))
+    right = [list(perms[int(c)]) == g.tolist() for c, g in zip(chosen, test_gold, strict=True)]
+    assert sum(right) / len(right) > 0.9
+    # through forward: a prompt listing three options gets its assignment's verdict in every token; one listing
+    # none gets the comparator's pick (directions at zero: the mean of the place verdicts), and so does a
+    # two-video prompt listing two options (the matcher was never fitted on two)
+    torch.nn.init.normal_(fusion.verdict)
+    pair_feats, pair_options, _, _ = _namings(1, 2, gen)
+    tokens = torch.cat([test_feats[0], test_feats[0], pair_feats[0]])
+    listed = torch.zeros(3, 3, 6)
+    listed[0], listed[2, :2] = test_options[0], pair_options[0]
+    with torch.no_grad():
+        out, _ = fusion(tokens, torch.tensor([3, 3, 2]), torch.zeros(3, 6), options=(listed, torch.tensor([3, 0, 2])))
+    delta = out - tokens
+    assigned = sum(fusion.assignments[v, o] for v, o in enumerate(perms[int(chosen[0])]))
+    torch.testing.assert_close(delta[:3], assigned.expand(3, 2, 8))
+    torch.testing.assert_close(delta[3:6], fusion.verdict[:3].mean(0).expand(3, 2, 8))
+    torch.testing.assert_close(delta[6:], fusion.verdict[:2].mean(0).expand(2, 2, 8))
+    with pytest.raises(ValueError, match="as many options as videos"):
+        fusion.fit_names(feats[:1], [options[0][:2]], gold[:1])
+
+
+def test_each_matched_option_s_name_carries_the_mark_of_its_video() -> None:
+    from tacreasoner.model.tactile_encoder import TactileProjector
+
+    projector = TactileProjector(8, 16, cross_video=3, question_dim=6, tokens_per_video=2, attributes=2)
+    fusion = projector.cross_video
+    feats, options, gold, _ = _namings(120, 3, torch.Generator().manual_seed(0))
+    fusion.fit_names(feats, options, gold)
+    torch.nn.init.normal_(projector.option_marks)
+    # prompt 0: three videos, its option names at tokens 1-2 (A), 3 (B), 4 (C); prompt 1: one video, no options
+    option = torch.tensor([[-1, 0, 0, 1, 2, -1], [-1, -1, -1, -1, -1, -1]])
+    listed = torch.zeros(2, 3, 6)
+    listed[0] = options[0]
+    features = torch.cat([feats[0], feats[1][:1]])
+    embeds = torch.zeros(2, 6, 16)
+    with torch.no_grad():
+        out = projector.mark_options(embeds, option, features, torch.tensor([3, 1]),
+                                     (listed, torch.tensor([3, 0])))
+    place = gold[0].argsort()  # the video of each option (the matcher gets this training prompt right)
+    expected = torch.zeros(2, 6, 16)
+    for token, k in ((1, 0), (2, 0), (3, 1), (4, 2)):
+        expected[0, token] = projector.option_marks[place[k]]
+    torch.testing.assert_close(out, expected)
+
+
+def test_option_vectors_average_each_listed_name_over_the_llm_s_own_rows() -> None:
+    model = tiny_model(cross_video=3)
+    model.config.new_token_ids = [14]
+    inputs = batch([prompt(3, question=[11, 12, 13, 14, 15]), prompt(3)])
+    mask = torch.zeros_like(inputs["input_ids"])
+    mask[0, :5] = torch.tensor([1, 2, 2, 3, 4])  # option A: 12 13, B: 14 (a new row: nothing), C: 15
+    mask[1, :3] = 1
+    embed = model.get_input_embeddings()
+    vectors, counts = model.option_vectors(inputs["input_ids"], embed(inputs["input_ids"]), mask)
+    assert counts.tolist() == [3, 0] and vectors.shape == (2, 3, TEXT_HIDDEN)
+    torch.testing.assert_close(vectors[0, 0], embed.weight[[12, 13]].mean(0))
+    assert not vectors[0, 1].any() and not vectors[1].any()
+    torch.testing.assert_close(vectors[0, 2], embed.weight[15])
+    # the question vector counts option names as question tokens, once each
+    question = model.question_vectors(inputs["input_ids"], embed(inputs["input_ids"]), None, mask)
+    torch.testing.assert_close(question[0], embed.weight[[11, 12, 13, 14, 15]].mean(0))
 
 
 def test_cross_video_verdict_reaches_every_token_of_the_prompt() -> None:

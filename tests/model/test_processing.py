@@ -16,7 +16,7 @@ from tacreasoner.data.clip import TactileClip
 from tacreasoner.model.configuration import TacReasonerConfig
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.modeling import TacReasonerForCausalLM, TactileAnswer
-from tacreasoner.model.processing import IGNORE_INDEX, TacReasonerProcessor
+from tacreasoner.model.processing import IGNORE_INDEX, OPTION_MASK_OFFSET, TacReasonerProcessor, option_spans
 from tacreasoner.model.tokenizer import TACTILE_PAD, train_tokenizer
 
 ENCODER = TactileEncoderConfig(num_frames=4, image_size=(32, 32), patch_size=8, hidden_size=32, num_layers=1,
@@ -55,6 +55,37 @@ def test_example_labels_only_the_answer_and_masks_the_question(processor) -> Non
     question = [i for i, m in zip(ex["input_ids"], ex["question_mask"], strict=True) if m]
     assert tok.decode(question).replace(" ", "") == "Is hard?".replace(" ", "")
     assert processor.tactile_token_id not in question
+
+
+@pytest.mark.parametrize(("text", "names"), [
+    ("The objects are (A) kitchen sponge (B) fake apple (C) wooden block. Pair every video.",
+     ["kitchen sponge", "fake apple", "wooden block"]),
+    ("Match them to: (A) steel block, (B) folded towel, or (C) real peach? Answer 1-X.",
+     ["steel block", "folded towel", "real peach"]),
+    ("Options: (A) the first object (B) the second object\nAnswer with A or B.",
+     ["the first object", "the second object"]),
+    ("(A) sponge (C) towel.", []),  # not A, B, … in order
+    ("Pick (A) sponge.", []),  # one option is no list
+    ("Is (A) harder than (B) ?", []),  # an empty name is no list
+])
+def test_option_spans_find_the_names_a_question_lists(text: str, names: list[str]) -> None:
+    assert [text[a:b] for a, b in option_spans(text)] == names
+
+
+def test_question_mask_marks_each_listed_option_s_name(processor) -> None:
+    question = "<tactile> <tactile>\nWhich is which: (A) kitchen sponge (B) harder object? Answer 1-X."
+    enc = processor.encode_conversation(processor.messages(question, "<answer>1-A, 2-B</answer>"),
+                                        add_generation_prompt=False)
+    tok = processor.tokenizer
+    for k, name in enumerate(["kitchen sponge", "harder object"]):
+        marked = [i for i, m in zip(enc.input_ids, enc.question_mask, strict=True) if m == OPTION_MASK_OFFSET + k]
+        assert tok.decode(marked).strip() == name
+    plain = [i for i, m in zip(enc.input_ids, enc.question_mask, strict=True) if m == 1]
+    assert "Which is which" in tok.decode(plain) and "sponge" not in tok.decode(plain)
+    assert max(enc.question_mask) == OPTION_MASK_OFFSET + 1
+    # no options listed: the mask is 0/1 as before
+    assert set(processor.encode_conversation(processor.messages("Is <tactile> hard?"),
+                                             add_generation_prompt=True).question_mask) == {0, 1}
 
 
 def test_placeholder_and_video_counts_must_match(processor) -> None:

@@ -50,6 +50,8 @@ def test_stage_one_trains_temporal_fusion_projector_and_new_token_rows_only() ->
     assert got - {embedding} and all(n.startswith(prefixes) for n in got - {embedding})
     # the comparator's heads choose a direction discretely: only their own losses reach them (fitted in Stage II)
     heads = ("projector.cross_video.attribute.", "projector.cross_video.comparative.")
+    # the name matcher and its verdicts act only on prompts listing named options, once fitted (Stage II)
+    heads += ("projector.cross_video.names.", "projector.cross_video.assignments", "projector.option_marks")
     expected = {n for n, _ in model.named_parameters() if n.startswith(prefixes) and not n.startswith(heads)}
     assert expected - got == set(), f"never reached: {sorted(expected - got)}"
     assert not any(n.startswith(heads) for n in got)
@@ -77,6 +79,7 @@ def test_stage_two_trains_projector_lora_and_new_token_rows_only() -> None:
     _backward(peft_model)
     got = _with_grad(peft_model)
     heads = ("cross_video.attribute.", "cross_video.comparative.")  # reached by their own losses only (fitted)
+    heads += ("cross_video.names.", "cross_video.assignments", "option_marks")  # only where options are matched
     assert got == {n for n in names if not any(h in n for h in heads)}, f"missing {set(names) - got}"
     assert any("projector.modules_to_save.default.video_slot" in n for n in got)
     assert any("projector.modules_to_save.default.cross_video" in n for n in got)

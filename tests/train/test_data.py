@@ -54,3 +54,14 @@ def test_tiny_data_fills_one_batch_and_bad_arguments_are_refused() -> None:
 def test_purity_and_padding_measures() -> None:
     assert batch_purity([[0, 1], [2, 3]], ["a", "a", "a", "b"]) == pytest.approx(0.75)
     assert padding_fraction([2, 4, 4, 4], [[0, 1], [2, 3]]) == pytest.approx(2 / 16)
+
+
+def test_repeat_tasks_repeats_the_named_tasks_in_place() -> None:
+    from tacreasoner.train.data import Tokenized, repeat_tasks
+
+    def example(key: str, task: str) -> Tokenized:
+        return Tokenized([1], [1], [1], (), key, task=task)
+
+    examples = [example("a", "SFD"), example("b", "OSC"), example("c", "RFOR")]
+    assert [e.key for e in repeat_tasks(examples, {"OSC": 3})] == ["a", "b", "b", "b", "c"]
+    assert repeat_tasks(examples, None) == examples

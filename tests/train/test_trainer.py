@@ -217,12 +217,17 @@ def test_stage_two_fits_the_comparator_first_and_keeps_it_frozen(inputs, tmp_pat
     fitted = info["comparator"]
     assert fitted["comparisons"] > 0 and 0.0 <= fitted["pick"] <= 1.0
     assert fitted["attribute"] > 0.9  # the attribute is plain in the question
+    # and the name matcher on the OSC items (three videos, three listed names)
+    assert fitted["named"] > 0 and 0.0 <= fitted["assigned"] <= 1.0
     fusion = model.projector.cross_video
     assert bool(fusion.directions.abs().sum() > 0) and bool((fusion.feature_mean != 0).any())
+    assert fusion.names_fitted.tolist() == [False, False, False, True]
     _, shorter = run(tmp_path / "one", 1)
     other = shorter.projector.cross_video
     # fitted the same way (seeded, fixed features) and untouched by Stage II's steps, which do train the rest
-    for name in ("directions", "feature_mean", "feature_var", "attribute.1.weight", "comparative.1.weight"):
-        assert torch.equal(fusion.get_parameter(name) if "feature" not in name else fusion.get_buffer(name),
-                           other.get_parameter(name) if "feature" not in name else other.get_buffer(name)), name
+    for name in ("directions", "feature_mean", "feature_var", "attribute.1.weight", "comparative.1.weight",
+                 "names.weight", "name_mean"):
+        buffer = name in ("feature_mean", "feature_var", "name_mean")
+        assert torch.equal(fusion.get_buffer(name) if buffer else fusion.get_parameter(name),
+                           other.get_buffer(name) if buffer else other.get_parameter(name)), name
     assert not torch.equal(model.projector.linear_1.weight, shorter.projector.linear_1.weight)

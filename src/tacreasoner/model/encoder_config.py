@@ -60,6 +60,11 @@ class TactileEncoderConfig:
     """Weight of the comparator's losses (pick, attribute, comparative) in Stage I's training loss. 0: the comparator
     is only fitted, on the frozen encoder's features, when Stage II starts (``train.comparator``); trained jointly
     at 1.0 it held Stage I's loss at 1.0–1.8 (0.23 without) and still did not learn to pick (docs/training.md)."""
+    cross_video_names: bool = True
+    """With ``cross_video``: a prompt listing as many named options ("(A) kitchen sponge (B) fake apple …") as it
+    holds videos gets the assignment of names to videos that best fits the videos' features (a ridge map from a
+    video's features to its name's embedding, fitted with the comparator), written into its tokens instead of the
+    comparator's pick (OSC; docs/training.md)."""
     video_labels: bool = False
     """Prompts holding several videos name each before its tokens ("Video 2: "), as the reasoning names them: the
     LLM can then find a video's tokens by its name (the processor's job; kept here so a saved model keeps it)."""
@@ -117,6 +122,8 @@ class TactileEncoderConfig:
         if not isinstance(self.cross_video_loss, (int, float)) or isinstance(self.cross_video_loss, bool) \
                 or not self.cross_video_loss >= 0:
             raise ValueError(f"encoder config: cross_video_loss must be a number ≥ 0, got {self.cross_video_loss!r}")
+        if not isinstance(self.cross_video_names, bool):
+            raise ValueError(f"encoder config: cross_video_names must be true or false, got {self.cross_video_names!r}")
         if not isinstance(self.video_labels, bool):
             raise ValueError(f"encoder config: video_labels must be true or false, got {self.video_labels!r}")
         if not self.sensor_types:

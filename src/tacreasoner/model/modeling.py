@@ -19,6 +19,7 @@ from transformers.modeling_outputs import CausalLMOutputWithPast
 
 from tacreasoner.model.configuration import TacReasonerConfig
 from tacreasoner.model.encoder_config import TactileEncoderConfig
+from tacreasoner.model.processing import OPTION_MASK_OFFSET
 from tacreasoner.model.tactile_encoder import DynamicTactileEncoder, TactileProjector
 
 __all__ = ["TacReasonerForCausalLM", "TacReasonerPreTrainedModel", "TactileAnswer", "count_videos"]
@@ -142,11 +143,36 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
             question_mask = input_ids != self.config.tactile_token_id
             if attention_mask is not None:
                 question_mask = question_mask & attention_mask.bool()
-        if pretrained_only and self.config.new_token_ids:
-            new = torch.tensor(self.config.new_token_ids, device=input_ids.device)
-            question_mask = question_mask.bool() & ~torch.isin(input_ids, new)
+        question_mask = question_mask > 0  # option names (values ≥ 2) are question tokens too
+        if pretrained_only:
+            question_mask = question_mask & self._pretrained(input_ids)
         weights = question_mask.to(text_embeds.dtype).unsqueeze(-1)
         return (text_embeds * weights).sum(1) / weights.sum(1).clamp(min=1.0)
+
+    def _pretrained(self, input_ids: torch.Tensor) -> torch.Tensor:
+        """Which ids are rows the LLM came with (not ``new_token_ids``)."""
+        if not self.config.new_token_ids:
+            return torch.ones_like(input_ids, dtype=torch.bool)
+        return ~torch.isin(input_ids, torch.tensor(self.config.new_token_ids, device=input_ids.device))
+
+    def option_vectors(self, input_ids: torch.Tensor, text_embeds: torch.Tensor,
+                       question_mask: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor]:
+        """Per prompt the mean embedding of each listed option's name over the LLM's own token rows (B×M×H, M the
+        most options of a prompt; zeros past a prompt's count) and how many options it lists (B): what the
+        cross-video layer matches the videos to ("(A) kitchen sponge (B) fake apple …", marked by the processor
+        in ``question_mask``)."""
+        if question_mask is None:
+            return text_embeds.new_zeros(len(input_ids), 0, text_embeds.shape[-1]), \
+                torch.zeros(len(input_ids), dtype=torch.long, device=input_ids.device)
+        option = question_mask.long() - OPTION_MASK_OFFSET  # −1, −2 outside options
+        counts = (option.max(1).values + 1).clamp(min=0)
+        most = int(counts.max()) if len(counts) else 0
+        pretrained = self._pretrained(input_ids)
+        out = text_embeds.new_zeros(len(input_ids), most, text_embeds.shape[-1])
+        for k in range(most):
+            weights = ((option == k) & pretrained).to(text_embeds.dtype).unsqueeze(-1)
+            out[:, k] = (text_embeds * weights).sum(1) / weights.sum(1).clamp(min=1.0)
+        return out, counts
 
     def encode_videos(self, pixel_values: torch.Tensor, question: torch.Tensor | None = None,
                       sensor_ids: torch.Tensor | None = None, appearance: torch.Tensor | None = None,
@@ -169,10 +195,11 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
     def tactile_features(self, input_ids: torch.Tensor, pixel_values: torch.Tensor | None,
                          attention_mask: torch.Tensor | None, question_mask: torch.Tensor | None,
                          sensor_ids: torch.Tensor | None, appearance_tokens: torch.Tensor | None = None,
-                         ) -> tuple[torch.Tensor, torch.Tensor | None, torch.Tensor, torch.Tensor | None]:
+                         ) -> tuple[torch.Tensor, torch.Tensor | None, torch.Tensor, torch.Tensor | None,
+                                    tuple[torch.Tensor, torch.Tensor] | None]:
         """The text embeddings, the tactile encoder's output (V×tokens_per_video×hidden, None without videos), each
-        prompt's number of videos and the cross-video layer's question vector (None without one): what the
-        projector gets."""
+        prompt's number of videos, and the cross-video layer's question vector and listed options
+        (:meth:`option_vectors`; None without the layer): what the projector gets."""
         tpv = self.encoder_config.tokens_per_video
         per_sample = count_videos(input_ids, self.config.tactile_token_id, tpv)
         n_placeholders, n_videos = int(per_sample.sum()), 0 if pixel_values is None else len(pixel_values)
@@ -181,23 +208,24 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
                              f"({n_placeholders * tpv} tokens at {tpv} per video) but {n_videos} video(s) were given")
         text_embeds = self.get_input_embeddings()(input_ids)
         if n_videos == 0:
-            return text_embeds, None, per_sample, None
-        question = compared = None
+            return text_embeds, None, per_sample, None, None
+        question = compared = options = None
         if self.encoder_config.use_temporal and self.encoder_config.question_conditioning:
             question = self.question_vectors(input_ids, text_embeds, attention_mask, question_mask)
             question = question.repeat_interleave(per_sample, dim=0)
         if self.encoder_config.cross_video:
             compared = self.question_vectors(input_ids, text_embeds, attention_mask, question_mask,
                                              pretrained_only=True)
+            options = self.option_vectors(input_ids, text_embeds, question_mask)
         features = self.tactile_encoder(pixel_values.to(text_embeds.dtype), question, sensor_ids, appearance_tokens)
-        return text_embeds, features, per_sample, compared
+        return text_embeds, features, per_sample, compared, options
 
     def _embed(self, input_ids: torch.Tensor, pixel_values: torch.Tensor | None, attention_mask: torch.Tensor | None,
                question_mask: torch.Tensor | None, sensor_ids: torch.Tensor | None,
                appearance_tokens: torch.Tensor | None, video_winner: torch.Tensor | None = None,
                ) -> tuple[torch.Tensor, torch.Tensor | None]:
         """:meth:`embed_inputs` plus the cross-video comparator's loss against ``video_winner`` (None without)."""
-        text_embeds, features, per_sample, compared = self.tactile_features(
+        text_embeds, features, per_sample, compared, options = self.tactile_features(
             input_ids, pixel_values, attention_mask, question_mask, sensor_ids, appearance_tokens)
         if features is None:
             return text_embeds, None
@@ -205,9 +233,13 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         if self.projector.video_slot is not None:  # each video's place in its own prompt: 0, 1, … per sample
             first = (per_sample.cumsum(0) - per_sample).repeat_interleave(per_sample)
             slots = torch.arange(len(features), device=input_ids.device) - first
-        tactile, comparison_loss = self.projector.project(features, slots, per_sample, compared, video_winner)
+        tactile, comparison_loss = self.projector.project(features, slots, per_sample, compared, video_winner,
+                                                                 options)
         mask = (input_ids == self.config.tactile_token_id).unsqueeze(-1)
         embeds = text_embeds.masked_scatter(mask, tactile.to(text_embeds.dtype).reshape(-1, text_embeds.shape[-1]))
+        if options is not None and question_mask is not None:
+            embeds = self.projector.mark_options(embeds, question_mask.long() - OPTION_MASK_OFFSET, features,
+                                                 per_sample, options)
         return embeds, comparison_loss
 
     # ------------------------------------------------------------------ forward / generate

@@ -2,7 +2,9 @@
 
 It renders conversations with the tokenizer's chat template, expands each ``<tactile>`` into
 ``tokens_per_video`` placeholder ids, preprocesses the videos, and marks which tokens are the
-question (steering the temporal branch) and which are the assistant's (the only ones with a loss).
+question (steering the temporal branch) and which are the assistant's (the only ones with a loss). In the
+question mask, 1 marks a question token and ``2 + k`` a token of the k-th option's name when the question lists
+named options ("(A) kitchen sponge (B) fake apple …"), which the cross-video layer matches to the videos.
 Token roles come from character offsets in the rendered text, so any chat template works as long
 as rendering the prompt gives a prefix of rendering the whole conversation.
 """
@@ -11,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,10 +35,44 @@ from tacreasoner.model.video_processing import (
 )
 from tacreasoner.tasks.schema import PLACEHOLDER
 
-__all__ = ["IGNORE_INDEX", "PROCESSOR_CONFIG_NAME", "TacReasonerProcessor"]
+__all__ = ["IGNORE_INDEX", "OPTION_MASK_OFFSET", "PROCESSOR_CONFIG_NAME", "TacReasonerProcessor", "option_spans"]
 
 IGNORE_INDEX = -100
 PROCESSOR_CONFIG_NAME = "processor_config.json"
+OPTION_MASK_OFFSET = 2
+"""``question_mask`` value of the tokens of the first listed option's name (the k-th's: this + k)."""
+
+_OPTION_MARKER = re.compile(r"\(([A-Z])\)")
+_OPTION_END = re.compile(r"[.?!;\n]")
+_OPTION_TRAILER = re.compile(r"(?:[\s,:;]|\b(?:and|or)\b)+$", re.IGNORECASE)
+
+
+def option_spans(text: str) -> list[tuple[int, int]]:
+    """Character spans of the names a question lists as "(A) name (B) name …" (from A, consecutive letters, at
+    least two; the last ends at the sentence's end), or [] when it lists none."""
+    markers = list(_OPTION_MARKER.finditer(text))
+    run: list[re.Match[str]] = []
+    for m in markers:
+        if m.group(1) == chr(ord("A") + len(run)):
+            run.append(m)
+        elif run:
+            break
+    if len(run) < 2:
+        return []
+    spans = []
+    for i, m in enumerate(run):
+        start = m.end()
+        if i + 1 < len(run):
+            end = run[i + 1].start()
+        else:
+            stop = _OPTION_END.search(text, start)
+            end = stop.start() if stop else len(text)
+        name = _OPTION_TRAILER.sub("", text[start:end])
+        lead = len(name) - len(name.lstrip())
+        if not name.strip():
+            return []
+        spans.append((start + lead, start + len(name)))
+    return spans
 
 
 def video_label(n: int) -> str:
@@ -140,10 +177,11 @@ class TacReasonerProcessor:
         return self.tokenizer.apply_chat_template(messages, tokenize=False, add_generation_prompt=add_generation_prompt)
 
     def encode_conversation(self, messages: list[dict[str, str]], *, add_generation_prompt: bool) -> _Encoded:
-        """Token ids with labels (assistant turns only) and the question mask (user text, no placeholders)."""
+        """Token ids with labels (assistant turns only) and the question mask (user text, no placeholders: 1, or
+        ``OPTION_MASK_OFFSET + k`` on the name of the k-th option the last user turn lists)."""
         expanded = [{**m, "content": self.expand(m["content"])} for m in messages]
         text = self._render(expanded, add_generation_prompt)
-        user_spans, assistant_spans = [], []
+        user_spans, assistant_spans, options = [], [], []
         previous = ""
         for i, message in enumerate(expanded):
             upto = self._render(expanded[: i + 1], False)
@@ -156,6 +194,7 @@ class TacReasonerProcessor:
             span = (start, start + len(message["content"]))
             if message["role"] == "user":
                 user_spans.append(span)
+                options = [(span[0] + a, span[0] + b) for a, b in option_spans(message["content"])]
             elif message["role"] == "assistant":
                 # the turn's end marker (<|im_end|>) is part of what the model must learn to produce
                 end = upto.find(IM_END, span[1])
@@ -167,8 +206,9 @@ class TacReasonerProcessor:
         for tok, (a, b) in zip(ids, enc["offset_mapping"], strict=True):
             in_answer = any(s <= a and b <= e for s, e in assistant_spans)
             labels.append(tok if in_answer and tok != self.tactile_token_id else IGNORE_INDEX)
-            in_question = any(s <= a and b <= e for s, e in user_spans)
-            question.append(int(in_question and tok != self.tactile_token_id))
+            in_question = any(s <= a and b <= e for s, e in user_spans) and tok != self.tactile_token_id
+            option = next((k for k, (s, e) in enumerate(options) if a < e and b > s and text[a:b].strip()), None)
+            question.append(OPTION_MASK_OFFSET + option if in_question and option is not None else int(in_question))
         return _Encoded(ids, labels, question)
 
     def _check_counts(self, texts: Sequence[str], videos: Sequence[Sequence[VideoInput]]) -> None:

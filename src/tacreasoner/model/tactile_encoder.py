@@ -11,6 +11,8 @@ unchanged and Stage I starts from what the appearance branch already knows.
 
 from __future__ import annotations
 
+import itertools
+
 import torch
 from torch import nn
 from torch.nn import functional as F
@@ -77,6 +79,14 @@ class CrossVideoFusion(nn.Module):
         self.directions = nn.Parameter(torch.zeros(attributes, width))
         self.register_buffer("feature_mean", torch.zeros(width))
         self.register_buffer("feature_var", torch.ones(width))
+        # the matcher: a video's features → its name's (standardised) embedding; one verdict per assignment
+        self.names = nn.Linear(width, question_dim)
+        self.register_buffer("name_mean", torch.zeros(question_dim))
+        self.register_buffer("name_std", torch.ones(question_dim))
+        self.register_buffer("names_fitted", torch.zeros(max_videos + 1, dtype=torch.bool))
+        self._permutations = {k: list(itertools.permutations(range(k))) for k in range(2, max_videos + 1)}
+        # one vector per (video place, option): an assignment writes the sum of its pairs' vectors
+        self.assignments = nn.Parameter(torch.zeros(max_videos, max_videos, hidden))
         self.out = nn.Linear(hidden, hidden)
         self.out.zero_init = True  # read by the model's _init_weights too
         nn.init.zeros_(self.out.weight)
@@ -135,7 +145,62 @@ class CrossVideoFusion(nn.Module):
 
     @property
     def comparator_parameters(self) -> list[nn.Parameter]:
-        return [*self.attribute.parameters(), *self.comparative.parameters(), self.directions]
+        """What :meth:`fit` and :meth:`fit_names` set and freeze (the verdicts stay trainable)."""
+        return [*self.attribute.parameters(), *self.comparative.parameters(), self.directions,
+                *self.names.parameters()]
+
+    def _match(self, videos: torch.Tensor, options: torch.Tensor) -> torch.Tensor:
+        """videos S×k×W (raw, flattened), options S×k×Dq → per prompt the index (in ``_permutations[k]``) of the
+        assignment (video v ↔ option p[v]) whose summed fit of each video's predicted name to its option's name
+        is largest."""
+        k = videos.shape[1]
+        predicted = self.names(videos.to(self.names.weight.dtype))  # S×k×Dq
+        wanted = (options.to(predicted.dtype) - self.name_mean.to(predicted.dtype)) / self.name_std.to(predicted.dtype)
+        fit = predicted @ wanted.transpose(1, 2)  # S×k videos×k options
+        index = torch.tensor(self._permutations[k], device=videos.device)  # P×k
+        totals = fit[:, torch.arange(k, device=videos.device), index].sum(-1)  # S×P
+        return totals.argmax(-1)
+
+    def fit_names(self, videos: list[torch.Tensor], options: list[torch.Tensor], assignments: torch.Tensor,
+                  penalty: float = 100.0, seed: int = 0) -> dict[str, float]:
+        """Fit the matcher on prompts listing as many named options as they hold videos (OSC), then freeze it.
+
+        ``videos``: per prompt its k×N×H encoder output; ``options``: per prompt its k×Dq option-name vectors
+        (``option_vectors``); ``assignments``: per prompt the gold option index of each video (S×k). A ridge
+        regression (closed form) maps a video's flattened features to the standardised embedding of its name;
+        a prompt then gets the assignment whose videos' predicted names best fit its options. On the frozen
+        encoder's features this matched held-out objects to their names where the LLM alone stayed at chance
+        (docs/training.md). Returns the share of these prompts it assigns right."""
+        if not videos:
+            raise ValueError("the name matcher needs at least one prompt with named options to fit")
+        if len(videos) != len(options) or len(videos) != len(assignments):
+            raise ValueError(f"got {len(videos)} prompts' videos, {len(options)} option lists, "
+                             f"{len(assignments)} assignments")
+        for v, o, a in zip(videos, options, assignments, strict=True):
+            if not (len(v) == len(o) == len(a)) or len(v) not in self._permutations:
+                raise ValueError(f"each prompt needs as many options as videos (2..{self.max_videos}), got "
+                                 f"{len(v)} videos, {len(o)} options, {len(a)} assigned")
+        x = torch.cat([v.flatten(1) for v in videos]).float()
+        y = torch.cat([o[a] for o, a in zip(options, assignments, strict=True)]).float()  # each video's own name
+        with torch.no_grad():
+            self.name_mean.copy_(y.mean(0))
+            self.name_std.copy_(y.std(0, unbiased=False) + 1e-6)
+            weight, bias = _ridge_solve(x, (y - self.name_mean) / self.name_std, penalty)
+            self.names.weight.copy_(weight.to(self.names.weight.dtype))
+            self.names.bias.copy_(bias.to(self.names.bias.dtype))
+            self.names_fitted.zero_()
+            for v in videos:
+                self.names_fitted[len(v)] = True
+            generator = torch.Generator().manual_seed(seed + 1)
+            self.assignments.copy_(_as_loud_as_a_token(x, self.assignments.shape, generator))
+        for p in self.names.parameters():
+            p.requires_grad_(False)
+        right = 0
+        with torch.no_grad():
+            for v, o, a in zip(videos, options, assignments, strict=True):
+                chosen = self._permutations[len(v)][int(self._match(v.flatten(1)[None], o[None])[0])]
+                right += int(list(chosen) == [int(i) for i in a])
+        return {"named": len(videos), "assigned": right / len(videos)}
 
     def fit(self, videos: list[torch.Tensor], questions: torch.Tensor, targets: torch.Tensor, steps: int = 1500,
             lr: float = 1e-2, weight_decay: float = 0.1, batch_size: int = 16, seed: int = 0) -> dict[str, float]:
@@ -188,8 +253,7 @@ class CrossVideoFusion(nn.Module):
                 optimizer.step()
         self.directions.requires_grad_(False)
         with torch.no_grad():  # the verdict starts as loud as a token (it stayed at 3% of one, unread, from zero)
-            scale = flat.view(-1, self.verdict.shape[1]).pow(2).sum(-1).mean().sqrt() / self.verdict.shape[1] ** 0.5
-            self.verdict.copy_(torch.randn(self.verdict.shape, generator=generator) * scale)
+            self.verdict.copy_(_as_loud_as_a_token(flat, self.verdict.shape, generator))
         right = {"pick": 0, "attribute": 0, "comparative": 0}
         with torch.no_grad():
             for feats, asked, gold in stacked.values():
@@ -200,12 +264,15 @@ class CrossVideoFusion(nn.Module):
         return {"comparisons": len(videos), **{k: v / len(videos) for k, v in right.items()}}
 
     def forward(self, tokens: torch.Tensor, per_sample: torch.Tensor, question: torch.Tensor | None,
-                winner: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor | None]:
+                winner: torch.Tensor | None = None, options: tuple[torch.Tensor, torch.Tensor] | None = None,
+                ) -> tuple[torch.Tensor, torch.Tensor | None]:
         """tokens V×N×H (all prompts' videos in order), per_sample B (videos per prompt), question B×Dq or None,
         winner B or B×3: per prompt the gold pick's place, and optionally the attribute's index and whether the
-        question asks for more (1) or less (0); −100 where unknown. Returns the tokens and the comparator's loss:
-        the mean over prompts with a pick of its cross-entropy, plus those of the attribute and the comparative
-        where known (None when the batch has no pick)."""
+        question asks for more (1) or less (0); −100 where unknown; options: per prompt its listed options' name
+        vectors (B×M×Dq) and how many it lists (B). A prompt listing as many options as it holds videos gets the
+        matcher's assignment once it is fitted (:meth:`fit_names`), the others the comparator's pick. Returns the
+        tokens and the comparator's loss: the mean over prompts with a pick of its cross-entropy, plus those of the
+        attribute and the comparative where known (None when the batch has no pick)."""
         counts = per_sample.tolist()
         if max(counts, default=0) > self.max_videos:
             raise ValueError(f"a prompt holds {max(counts)} videos but the cross-video layer was built for at most "
@@ -226,6 +293,12 @@ class CrossVideoFusion(nn.Module):
             videos = self._standardised(tokens[index].view(len(samples), k, n * hidden))
             scores, attribute_logits, more_logit = self._compare(videos, asked.to(tokens.dtype))
             verdict = scores.softmax(-1) @ self.verdict[:k].to(tokens.dtype)  # S×H
+            named = self._named(samples, k, options)
+            if bool(named.any()):  # these prompts ask which video is which option, not which one wins
+                vectors = options[0][samples][named][:, :k]
+                chosen = self._match(tokens[index].view(len(samples), k, n * hidden)[named], vectors)
+                verdict = verdict.clone()
+                verdict[named] = self.assignment_verdict(k, chosen).to(verdict.dtype)
             delta = self.out(mixed - seq[:, -k * n:]) + verdict.unsqueeze(1)
             out[index] = tokens[index] + delta.reshape(len(samples) * k, n, hidden)
             if winner is not None:
@@ -233,19 +306,66 @@ class CrossVideoFusion(nn.Module):
                 loss_sum, picks = loss_sum + loss, picks + count
         return out, (loss_sum / picks if picks else None)
 
+    def places(self, tokens: torch.Tensor, per_sample: torch.Tensor,
+               options: tuple[torch.Tensor, torch.Tensor]) -> torch.Tensor:
+        """B×M: for each listed option of each prompt the place of the video the fitted matcher assigns it (−1 where
+        the prompt is not matched: fewer or more options than videos, or no fitted matcher for that many)."""
+        vectors = options[0]
+        out = torch.full(vectors.shape[:2], -1, dtype=torch.long, device=tokens.device)
+        counts = per_sample.tolist()
+        starts = [sum(counts[:i]) for i in range(len(counts))]
+        for k in sorted({c for c in counts if c >= 2}):
+            samples = [i for i, c in enumerate(counts) if c == k]
+            named = self._named(samples, k, options)
+            if not bool(named.any()):
+                continue
+            rows = [i for i, keep in zip(samples, named.tolist(), strict=True) if keep]
+            index = torch.tensor([starts[i] + j for i in rows for j in range(k)], device=tokens.device)
+            chosen = self._match(tokens[index].reshape(len(rows), k, -1), vectors[rows][:, :k])
+            pairs = torch.tensor(self._permutations[k], device=tokens.device)[chosen]  # option of each place
+            out[rows, :k] = pairs.argsort(-1)  # place of each option
+        return out
+
+    def assignment_verdict(self, k: int, chosen: torch.Tensor) -> torch.Tensor:
+        """S×H: per prompt the sum of the (video place, option) vectors of its chosen assignment (an index into
+        ``_permutations[k]``): each video's option can be read from the sum without decoding one code per
+        assignment."""
+        pairs = torch.tensor(self._permutations[k], device=chosen.device)[chosen]  # S×k: option of each place
+        return self.assignments[torch.arange(k, device=chosen.device), pairs].sum(1)
+
+    def _named(self, samples: list[int], k: int, options: tuple[torch.Tensor, torch.Tensor] | None) -> torch.Tensor:
+        """Which of these k-video prompts the fitted matcher assigns (they list exactly k options)."""
+        if options is None or not bool(self.names_fitted[k]):
+            return torch.zeros(len(samples), dtype=torch.bool, device=self.names_fitted.device)
+        return options[1][samples].to(self.names_fitted.device) == k
+
+
+def _as_loud_as_a_token(flat: torch.Tensor, shape: torch.Size, generator: torch.Generator) -> torch.Tensor:
+    """Random verdict vectors whose norm is a token's mean norm in ``flat`` (videos × tokens·hidden)."""
+    hidden = shape[-1]
+    scale = flat.reshape(-1, hidden).pow(2).sum(-1).mean().sqrt() / hidden ** 0.5
+    return torch.randn(shape, generator=generator) * scale
+
+
+def _ridge_solve(x: torch.Tensor, y: torch.Tensor, penalty: float) -> tuple[torch.Tensor, torch.Tensor]:
+    """Ridge regression of ``y`` on per-dimension standardised ``x`` with the standardisation folded in: the weight
+    (out×in) and bias of a Linear applied to raw ``x``."""
+    x = x.double()
+    mean, std = x.mean(0), x.std(0) + 1e-6
+    z = (x - mean) / std
+    y = y.double()
+    w = torch.linalg.solve(z.T @ z + penalty * torch.eye(z.shape[1], dtype=z.dtype), z.T @ (y - y.mean(0)))
+    return (w / std[:, None]).T, y.mean(0) - (mean / std) @ w
+
 
 def _ridge(head: nn.Sequential, questions: torch.Tensor, targets: torch.Tensor, penalty: float = 10.0) -> None:
     """Set ``head`` (LayerNorm → Linear) to the ridge regression of ``targets`` on its normalised, per-dimension
     standardised inputs: closed form, and it names unseen questions' attribute where a gradient-fitted map of the
     same vectors over-fits the templates it saw (150 of 150 in comparator_probe.md)."""
     norm, linear = head[0], head[1]
-    x = norm(questions.to(linear.weight.dtype)).double()
-    mean, std = x.mean(0), x.std(0) + 1e-6
-    z = (x - mean) / std
-    y = targets.double()
-    w = torch.linalg.solve(z.T @ z + penalty * torch.eye(z.shape[1], dtype=z.dtype), z.T @ (y - y.mean(0)))
-    linear.weight.copy_((w / std[:, None]).T.to(linear.weight.dtype))
-    linear.bias.copy_((y.mean(0) - (mean / std) @ w).to(linear.bias.dtype))
+    weight, bias = _ridge_solve(norm(questions.to(linear.weight.dtype)), targets, penalty)
+    linear.weight.copy_(weight.to(linear.weight.dtype))
+    linear.bias.copy_(bias.to(linear.bias.dtype))
 
 
 class VideoSlots(nn.Module):
@@ -296,6 +416,8 @@ class TactileProjector(nn.Module):
         self.act = nn.GELU()
         self.linear_2 = nn.Linear(out_dim, out_dim)
         self.video_slot = VideoSlots(video_slots, out_dim) if video_slots else None
+        # added to the text embedding of a listed option's name: the place of the video the matcher gives it
+        self.option_marks = nn.Parameter(torch.zeros(cross_video, out_dim)) if cross_video else None
 
     def forward(self, features: torch.Tensor, slots: torch.Tensor | None = None, per_sample: torch.Tensor | None = None,
                 question: torch.Tensor | None = None) -> torch.Tensor:
@@ -303,16 +425,32 @@ class TactileProjector(nn.Module):
         ``per_sample`` (videos per prompt, B) and ``question`` (B×Dq), read by the cross-video layer."""
         return self.project(features, slots, per_sample, question)[0]
 
+    def mark_options(self, embeds: torch.Tensor, option: torch.Tensor, features: torch.Tensor,
+                     per_sample: torch.Tensor, options: tuple[torch.Tensor, torch.Tensor]) -> torch.Tensor:
+        """``embeds`` (B×L×D) with each matched option's name tokens (``option``: B×L, the option index of each
+        token, −1 elsewhere) carrying the mark of the video place the matcher assigns that option: the LLM can then
+        find "the option of video 2" by attending for its mark, where it wrote one assignment code poorly."""
+        if self.cross_video is None or self.option_marks is None or options[0].shape[1] == 0:
+            return embeds
+        places = self.cross_video.places(features, per_sample, options)  # B×M
+        if not bool((places >= 0).any()):
+            return embeds
+        at = places.gather(1, option.clamp(0, places.shape[1] - 1))  # B×L: place of each token's option
+        at = torch.where(option >= 0, at, -1)
+        marks = self.option_marks.to(embeds.dtype)[at.clamp(min=0)] * (at >= 0).unsqueeze(-1).to(embeds.dtype)
+        return embeds + marks
+
     def project(self, features: torch.Tensor, slots: torch.Tensor | None = None,
                 per_sample: torch.Tensor | None = None, question: torch.Tensor | None = None,
-                winner: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor | None]:
+                winner: torch.Tensor | None = None, options: tuple[torch.Tensor, torch.Tensor] | None = None,
+                ) -> tuple[torch.Tensor, torch.Tensor | None]:
         """:meth:`forward` plus the cross-video comparator's loss against ``winner`` (B or B×3; None without
-        one)."""
+        one); ``options``: each prompt's listed option names for the matcher (``CrossVideoFusion.forward``)."""
         comparison_loss = None
         if self.cross_video is not None:
             if per_sample is None:
                 per_sample = torch.ones(len(features), dtype=torch.long, device=features.device)
-            features, comparison_loss = self.cross_video(features, per_sample, question, winner)
+            features, comparison_loss = self.cross_video(features, per_sample, question, winner, options)
         out = self.linear_2(self.act(self.linear_1(features)))
         if self.video_slot is None:
             return out, comparison_loss

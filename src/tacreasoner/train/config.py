@@ -81,6 +81,9 @@ class DataSettings:
     projector learn to present two or three videos in a way the frozen LLM can compare (docs/training.md)."""
     tasks: list[str] | None = None
     """Restrict training items to these tasks (default: all in the files; TSA is never trained on)."""
+    repeat: dict[str, int] | None = None
+    """Task → how many times each of its examples is seen per epoch (after the comparator's fit, which sees each
+    once), e.g. ``{OSC: 4}``: OSC's answer is one of six assignments learnt from ~200 examples."""
     max_length: int = 768
     """Longer examples are dropped and counted (never silently truncated mid-answer)."""
     group_by_length: bool = False
@@ -104,6 +107,16 @@ class DataSettings:
             raise ValueError(f"data.length_group_batches must be at least 1, got {self.length_group_batches}")
         if self.max_items is not None and self.max_items < 1:
             raise ValueError(f"data.max_items must be at least 1, got {self.max_items}")
+        if self.repeat is not None:
+            from tacreasoner.tasks.schema import TASKS
+
+            if not isinstance(self.repeat, dict):
+                raise ValueError(f"data.repeat must map task names to whole numbers ≥ 1, got {self.repeat!r}")
+            for task, times in self.repeat.items():
+                if task not in TASKS:
+                    raise ValueError(f"data.repeat: unknown task {task!r}; known: {', '.join(TASKS)}")
+                if not isinstance(times, int) or isinstance(times, bool) or times < 1:
+                    raise ValueError(f"data.repeat.{task} must be a whole number ≥ 1, got {times!r}")
         if self.tasks is not None:
             from tacreasoner.tasks.schema import TASKS
 
@@ -175,7 +188,7 @@ class RuntimeSettings:
 
 
 _TYPES: dict[str, tuple[type, ...]] = {"int": (int,), "float": (int, float), "bool": (bool,), "str": (str,),
-                                       "list[str]": (list,), "dict[str, Any]": (dict,)}
+                                       "list[str]": (list,), "dict[str, Any]": (dict,), "dict[str, int]": (dict,)}
 
 
 def _check_types(kind: type, raw: dict[str, Any], section: str) -> None:

@@ -58,10 +58,15 @@ class TrainExample:
     """SFD/SOI: the attribute compared."""
     more: int = IGNORE_INDEX
     """SFD/SOI: 1 when the question asks for more of it (harder, the most elastic), 0 for less."""
+    assignment: tuple[int, ...] = ()
+    """OSC: each video's option index (the name it was recorded on), for the cross-video layer's name matcher."""
 
 
 def comparison_target(item: QAItem) -> dict[str, Any]:
-    """An SFD/SOI item's comparator targets (``winner``, ``attribute``, ``more``); empty for other tasks."""
+    """An SFD/SOI item's comparator targets (``winner``, ``attribute``, ``more``), an OSC item's ``assignment``
+    (for the name matcher); empty for other tasks."""
+    if item.task == "OSC":
+        return {"assignment": tuple(int(k) for k in item.gold["assignment"])}
     if item.task not in COMPARISON_TASKS:
         return {}
     return {"winner": comparison_winner(item), "attribute": str(item.gold["attribute"]),
@@ -189,6 +194,8 @@ class Tokenized:
     winner: int = IGNORE_INDEX
     attribute: str = ""
     more: int = IGNORE_INDEX
+    assignment: tuple[int, ...] = ()
+    task: str = ""
 
     @property
     def n_labels(self) -> int:
@@ -206,8 +213,15 @@ def tokenize_examples(processor: Any, examples: Sequence[TrainExample], max_leng
             dropped.append(e.key)
             continue
         kept.append(Tokenized(enc.input_ids, enc.labels, enc.question_mask, e.videos, e.key, e.winner, e.attribute,
-                              e.more))
+                              e.more, e.assignment, e.task))
     return kept, dropped
+
+
+def repeat_tasks(examples: Sequence[Tokenized], repeat: dict[str, int] | None) -> list[Tokenized]:
+    """``examples`` with each example of a task in ``repeat`` that many times (in place, so order stays)."""
+    if not repeat:
+        return list(examples)
+    return [e for e in examples for _ in range(repeat.get(e.task, 1))]
 
 
 # ------------------------------------------------------------------------------------------ videos

@@ -32,7 +32,7 @@ TINY_SETTINGS: dict[str, Any] = {
     "stage1": {"steps": 1800, "batch_size": 16, "lr": 1e-3, "warmup_ratio": 0.05},
     "stage2": {"steps": 1000, "batch_size": 8, "lr": 2e-3, "projector_lr": 1e-3, "warmup_ratio": 0.05},
     "lora": {"r": 128, "alpha": 256, "dropout": 0.05},
-    "data": {"max_length": 768, "group_by_length": False},
+    "data": {"max_length": 768, "group_by_length": False, "repeat": {"OSC": 4, "SFD": 2, "SOI": 2}},
     "runtime": {"mixed_precision": "auto", "log_with": "tensorboard", "log_every": 10, "checkpoint_every": 50},
 }
 """The tiny default (the same values as configs/tiny-cpu.yaml; a test keeps the two in step)."""

@@ -31,9 +31,9 @@ from typing import Any
 
 import torch
 
-from tacreasoner.train.comparator import comparisons, fit_comparator
+from tacreasoner.train.comparator import fit_comparator, fit_sets
 from tacreasoner.train.config import TrainConfig
-from tacreasoner.train.data import VideoBank, batch_plan, collate, load_examples, tokenize_examples
+from tacreasoner.train.data import VideoBank, batch_plan, collate, load_examples, repeat_tasks, tokenize_examples
 from tacreasoner.train.progress import StageBar
 from tacreasoner.train.state import (
     cosine_with_warmup,
@@ -239,9 +239,10 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
         bank.cache_appearance(base.tactile_encoder)
     comparator = None
     if stage == 2 and base.projector.cross_video is not None:  # encoder frozen from here: fit, then freeze
-        bar.stage("fitting comparator", len(comparisons(tokenized)))
+        bar.stage("fitting comparator", sum(len(s) for s in fit_sets(base, tokenized)))
         comparator = fit_comparator(base, processor, tokenized, bank, config.seed,
                                     progress=lambda done, _total: bar.update(done))
+    tokenized = repeat_tasks(tokenized, config.data.repeat)
     # the comparator trains with the LLM's loss only in Stage I and only when asked (encoder.cross_video_loss):
     # only then do the batches carry its targets
     attributes = (base.encoder_config.cross_video_attributes
