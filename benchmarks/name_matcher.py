@@ -44,13 +44,13 @@ def matcher_assignments(model, processor, bench: Path, cache: Path | None) -> di
             enc = processor.encode_conversation(processor.messages(item.question), add_generation_prompt=True)
             ids, mask = torch.tensor([enc.input_ids]), torch.tensor([enc.question_mask])
             videos = bank.batch(ks)
-            _, features, _, _, (vectors, counts) = model.tactile_features(
+            _, features, per_sample, _, options = model.tactile_features(
                 ids, videos["pixel_values"], None, mask, videos["sensor_ids"], None)
-            if int(counts[0]) != len(ks):
-                raise SystemExit(f"item {item.id}: the processor found {int(counts[0])} listed options, "
+            if int(options[1][0]) != len(ks):
+                raise SystemExit(f"item {item.id}: the processor found {int(options[1][0])} listed options, "
                                  f"expected {len(ks)}")
-            chosen = fusion._match(features.flatten(1)[None].float(), vectors[:, :len(ks)].float())
-            out[item.id] = list(fusion._permutations[len(ks)][int(chosen[0])])
+            places = fusion.places(features, per_sample, options)[0, :len(ks)]  # the video of each option
+            out[item.id] = places.argsort().tolist()  # the option of each video
     return out
 
 

@@ -306,7 +306,9 @@ def test_name_matcher_assigns_unseen_prompts_and_replaces_the_pick_there_only() 
     listed = torch.zeros(3, 3, 6)
     listed[0], listed[2, :2] = test_options[0], pair_options[0]
     with torch.no_grad():
-        out, _ = fusion(tokens, torch.tensor([3, 3, 2]), torch.zeros(3, 6), options=(listed, torch.tensor([3, 0, 2])))
+        per_sample = torch.tensor([3, 3, 2])
+        places = fusion.places(tokens, per_sample, (listed, torch.tensor([3, 0, 2])))
+        out, _ = fusion(tokens, per_sample, torch.zeros(3, 6), places=places)
     delta = out - tokens
     assigned = sum(fusion.assignments[v, o] for v, o in enumerate(perms[int(chosen[0])]))
     torch.testing.assert_close(delta[:3], assigned.expand(3, 2, 8))
@@ -331,8 +333,8 @@ def test_each_matched_option_s_name_carries_the_mark_of_its_video() -> None:
     features = torch.cat([feats[0], feats[1][:1]])
     embeds = torch.zeros(2, 6, 16)
     with torch.no_grad():
-        out = projector.mark_options(embeds, option, features, torch.tensor([3, 1]),
-                                     (listed, torch.tensor([3, 0])))
+        places = fusion.places(features, torch.tensor([3, 1]), (listed, torch.tensor([3, 0])))
+        out = projector.mark_options(embeds, option, places)
     place = gold[0].argsort()  # the video of each option (the matcher gets this training prompt right)
     expected = torch.zeros(2, 6, 16)
     for token, k in ((1, 0), (2, 0), (3, 1), (4, 2)):

@@ -233,13 +233,14 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         if self.projector.video_slot is not None:  # each video's place in its own prompt: 0, 1, … per sample
             first = (per_sample.cumsum(0) - per_sample).repeat_interleave(per_sample)
             slots = torch.arange(len(features), device=input_ids.device) - first
-        tactile, comparison_loss = self.projector.project(features, slots, per_sample, compared, video_winner,
-                                                                 options)
+        places = None  # the name matcher's assignment, read twice: by the tactile tokens and the option names
+        if options is not None and self.projector.cross_video is not None:
+            places = self.projector.cross_video.places(features, per_sample, options)
+        tactile, comparison_loss = self.projector.project(features, slots, per_sample, compared, video_winner, places)
         mask = (input_ids == self.config.tactile_token_id).unsqueeze(-1)
         embeds = text_embeds.masked_scatter(mask, tactile.to(text_embeds.dtype).reshape(-1, text_embeds.shape[-1]))
-        if options is not None and question_mask is not None:
-            embeds = self.projector.mark_options(embeds, question_mask.long() - OPTION_MASK_OFFSET, features,
-                                                 per_sample, options)
+        if places is not None and question_mask is not None:
+            embeds = self.projector.mark_options(embeds, question_mask.long() - OPTION_MASK_OFFSET, places)
         return embeds, comparison_loss
 
     # ------------------------------------------------------------------ forward / generate

@@ -264,13 +264,12 @@ class CrossVideoFusion(nn.Module):
         return {"comparisons": len(videos), **{k: v / len(videos) for k, v in right.items()}}
 
     def forward(self, tokens: torch.Tensor, per_sample: torch.Tensor, question: torch.Tensor | None,
-                winner: torch.Tensor | None = None, options: tuple[torch.Tensor, torch.Tensor] | None = None,
+                winner: torch.Tensor | None = None, places: torch.Tensor | None = None,
                 ) -> tuple[torch.Tensor, torch.Tensor | None]:
         """tokens V×N×H (all prompts' videos in order), per_sample B (videos per prompt), question B×Dq or None,
         winner B or B×3: per prompt the gold pick's place, and optionally the attribute's index and whether the
-        question asks for more (1) or less (0); −100 where unknown; options: per prompt its listed options' name
-        vectors (B×M×Dq) and how many it lists (B). A prompt listing as many options as it holds videos gets the
-        matcher's assignment once it is fitted (:meth:`fit_names`), the others the comparator's pick. Returns the
+        question asks for more (1) or less (0); −100 where unknown; places: the matcher's assignment (:meth:`places`,
+        B×M). A prompt it matched gets that assignment, the others the comparator's pick. Returns the
         tokens and the comparator's loss: the mean over prompts with a pick of its cross-entropy, plus those of the
         attribute and the comparative where known (None when the batch has no pick)."""
         counts = per_sample.tolist()
@@ -293,12 +292,11 @@ class CrossVideoFusion(nn.Module):
             videos = self._standardised(tokens[index].view(len(samples), k, n * hidden))
             scores, attribute_logits, more_logit = self._compare(videos, asked.to(tokens.dtype))
             verdict = scores.softmax(-1) @ self.verdict[:k].to(tokens.dtype)  # S×H
-            named = self._named(samples, k, options)
-            if bool(named.any()):  # these prompts ask which video is which option, not which one wins
-                vectors = options[0][samples][named][:, :k]
-                chosen = self._match(tokens[index].view(len(samples), k, n * hidden)[named], vectors)
+            matched = (places[samples, :1] >= 0).any(-1) if places is not None else None
+            if matched is not None and bool(matched.any()):  # these ask which video is which option, not which wins
                 verdict = verdict.clone()
-                verdict[named] = self.assignment_verdict(k, chosen).to(verdict.dtype)
+                pairs = places[samples][matched][:, :k].argsort(-1)  # the option of each place
+                verdict[matched] = self.assignment_verdict(pairs).to(verdict.dtype)
             delta = self.out(mixed - seq[:, -k * n:]) + verdict.unsqueeze(1)
             out[index] = tokens[index] + delta.reshape(len(samples) * k, n, hidden)
             if winner is not None:
@@ -310,34 +308,25 @@ class CrossVideoFusion(nn.Module):
                options: tuple[torch.Tensor, torch.Tensor]) -> torch.Tensor:
         """B×M: for each listed option of each prompt the place of the video the fitted matcher assigns it (−1 where
         the prompt is not matched: fewer or more options than videos, or no fitted matcher for that many)."""
-        vectors = options[0]
+        vectors, listed = options[0], options[1].tolist()
         out = torch.full(vectors.shape[:2], -1, dtype=torch.long, device=tokens.device)
         counts = per_sample.tolist()
         starts = [sum(counts[:i]) for i in range(len(counts))]
-        for k in sorted({c for c in counts if c >= 2}):
-            samples = [i for i, c in enumerate(counts) if c == k]
-            named = self._named(samples, k, options)
-            if not bool(named.any()):
+        for k in sorted({c for c in counts if 2 <= c <= self.max_videos and bool(self.names_fitted[c])}):
+            rows = [i for i, c in enumerate(counts) if c == k and listed[i] == k]
+            if not rows:
                 continue
-            rows = [i for i, keep in zip(samples, named.tolist(), strict=True) if keep]
             index = torch.tensor([starts[i] + j for i in rows for j in range(k)], device=tokens.device)
             chosen = self._match(tokens[index].reshape(len(rows), k, -1), vectors[rows][:, :k])
             pairs = torch.tensor(self._permutations[k], device=tokens.device)[chosen]  # option of each place
             out[rows, :k] = pairs.argsort(-1)  # place of each option
         return out
 
-    def assignment_verdict(self, k: int, chosen: torch.Tensor) -> torch.Tensor:
-        """S×H: per prompt the sum of the (video place, option) vectors of its chosen assignment (an index into
-        ``_permutations[k]``): each video's option can be read from the sum without decoding one code per
+    def assignment_verdict(self, pairs: torch.Tensor) -> torch.Tensor:
+        """S×H: per prompt the sum of the (video place, option) vectors of its assignment (``pairs``, S×k: the
+        option of each place): each video's option can be read from the sum without decoding one code per
         assignment."""
-        pairs = torch.tensor(self._permutations[k], device=chosen.device)[chosen]  # S×k: option of each place
-        return self.assignments[torch.arange(k, device=chosen.device), pairs].sum(1)
-
-    def _named(self, samples: list[int], k: int, options: tuple[torch.Tensor, torch.Tensor] | None) -> torch.Tensor:
-        """Which of these k-video prompts the fitted matcher assigns (they list exactly k options)."""
-        if options is None or not bool(self.names_fitted[k]):
-            return torch.zeros(len(samples), dtype=torch.bool, device=self.names_fitted.device)
-        return options[1][samples].to(self.names_fitted.device) == k
+        return self.assignments[torch.arange(pairs.shape[1], device=pairs.device), pairs].sum(1)
 
 
 def _as_loud_as_a_token(flat: torch.Tensor, shape: torch.Size, generator: torch.Generator) -> torch.Tensor:
@@ -425,15 +414,12 @@ class TactileProjector(nn.Module):
         ``per_sample`` (videos per prompt, B) and ``question`` (B×Dq), read by the cross-video layer."""
         return self.project(features, slots, per_sample, question)[0]
 
-    def mark_options(self, embeds: torch.Tensor, option: torch.Tensor, features: torch.Tensor,
-                     per_sample: torch.Tensor, options: tuple[torch.Tensor, torch.Tensor]) -> torch.Tensor:
+    def mark_options(self, embeds: torch.Tensor, option: torch.Tensor, places: torch.Tensor) -> torch.Tensor:
         """``embeds`` (B×L×D) with each matched option's name tokens (``option``: B×L, the option index of each
-        token, −1 elsewhere) carrying the mark of the video place the matcher assigns that option: the LLM can then
-        find "the option of video 2" by attending for its mark, where it wrote one assignment code poorly."""
-        if self.cross_video is None or self.option_marks is None or options[0].shape[1] == 0:
-            return embeds
-        places = self.cross_video.places(features, per_sample, options)  # B×M
-        if not bool((places >= 0).any()):
+        token, −1 elsewhere) carrying the mark of the video place the matcher assigns that option (``places``,
+        B×M: ``CrossVideoFusion.places``): the LLM can then find "the option of video 2" by attending for its
+        mark, where it wrote one assignment code poorly."""
+        if self.option_marks is None or places.shape[1] == 0 or not bool((places >= 0).any()):
             return embeds
         at = places.gather(1, option.clamp(0, places.shape[1] - 1))  # B×L: place of each token's option
         at = torch.where(option >= 0, at, -1)
@@ -442,15 +428,15 @@ class TactileProjector(nn.Module):
 
     def project(self, features: torch.Tensor, slots: torch.Tensor | None = None,
                 per_sample: torch.Tensor | None = None, question: torch.Tensor | None = None,
-                winner: torch.Tensor | None = None, options: tuple[torch.Tensor, torch.Tensor] | None = None,
+                winner: torch.Tensor | None = None, places: torch.Tensor | None = None,
                 ) -> tuple[torch.Tensor, torch.Tensor | None]:
         """:meth:`forward` plus the cross-video comparator's loss against ``winner`` (B or B×3; None without
-        one); ``options``: each prompt's listed option names for the matcher (``CrossVideoFusion.forward``)."""
+        one); ``places``: the name matcher's assignment (``CrossVideoFusion.places``)."""
         comparison_loss = None
         if self.cross_video is not None:
             if per_sample is None:
                 per_sample = torch.ones(len(features), dtype=torch.long, device=features.device)
-            features, comparison_loss = self.cross_video(features, per_sample, question, winner, options)
+            features, comparison_loss = self.cross_video(features, per_sample, question, winner, places)
         out = self.linear_2(self.act(self.linear_1(features)))
         if self.video_slot is None:
             return out, comparison_loss
