@@ -24,13 +24,15 @@ Variants (Table 3: DynEncoder × CoT-SFT; Table 4: training stages; plus the enc
 
 Each variant is trained and evaluated on the held-out test objects; the table gives per-task accuracy with
 Wilson 95% intervals and the exact McNemar p-value of each variant against `full` on the same items.
-Everything is resumable (finished variants are reused). Results: benchmarks/results/ablations.{json,md}.
+no_cot and no_stage2 change Stage II only, so they start from the full model's Stage I (copied). Everything is
+resumable (finished variants are reused). Results: benchmarks/results/ablations.{json,md}.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -56,6 +58,9 @@ VARIANTS: dict[str, dict] = {
                                                                   "TFA-friction"]},
                        "stage2": {"steps": 1200}},
 }
+SHARED_STAGE1 = ("no_cot", "no_stage2")
+"""Variants that change Stage II only: they start from the full model's Stage I (copied, not retrained with the
+same seed and settings), which saves two Stage I runs and keeps Stage I's randomness out of their comparison."""
 DESCRIPTIONS = {
     "full": "Stage I + Stage II (TouchCoT), dynamic encoder",
     "no_dyn": "no temporal branch (appearance only)",
@@ -82,6 +87,12 @@ def _config(paths, name: str, seed: int):
         overrides["model"] = model
     out = paths.train(seed) if name == "full" else paths.root / "ablations" / name / f"seed{seed}"
     return quickstart_config(paths, seed, overrides, output_dir=out)
+
+
+def _share_stage1(paths, config, name: str, seed: int) -> None:
+    source, target = paths.train(seed) / "stage1", config.stage_dir(1)
+    if name in SHARED_STAGE1 and not target.exists() and (source / "run.json").is_file():
+        shutil.copytree(source, target, ignore=shutil.ignore_patterns("checkpoints"))
 
 
 def main() -> None:
@@ -111,6 +122,7 @@ def main() -> None:
     for name in names:
         config = _config(paths, name, args.seed)
         start = time.perf_counter()
+        _share_stage1(paths, config, name, args.seed)
         trained = train_seed(config)
         preds = Path(config.output_dir) / "eval" / "test_predictions.jsonl"
         if name == "full" and (paths.evaluation / "test" / "predictions" / f"seed{args.seed}.jsonl").is_file():
@@ -132,7 +144,8 @@ def main() -> None:
            f"({args.seed}) per variant; test split: {len(items)} items over held-out objects; strict extraction. "
            "Cells: accuracy % [Wilson 95% CI]; p = exact McNemar test against `full` on the same items "
            "(bold when p < 0.05). Settings: the quickstart's tiny config (configs/tiny-cpu.yaml), each variant one "
-           "change.\n\n")
+           "change; " + ", ".join(SHARED_STAGE1) + " start from the full model's Stage I (they change Stage II "
+           "only).\n\n")
     head = ["Variant", *tasks, "Average", "Overall p"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name in names:

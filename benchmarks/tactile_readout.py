@@ -2,11 +2,11 @@
 
 Usage: python benchmarks/tactile_readout.py [--run runs/quickstart] [--model runs/quickstart/model]
 
-For the single-clip attribute tasks, fits a ridge classifier on the train split's clips and scores the test
-split's (held-out objects) using three feature sets of the trained model: the frozen appearance tokens
-(F_app), the projector's output (what replaces the placeholders in the LLM's input), and a pixel baseline
-(mean absolute background-subtracted intensity per frame). It sets the model's benchmark accuracy on the
-same items beside them: a read-out far above the model's accuracy means the LLM does not use what it gets.
+For the single-clip tasks (the four attributes, and RFOR: real vs fake), fits a ridge classifier on the train
+split's clips and scores the test split's (held-out objects) using three feature sets of the trained model: the
+frozen appearance tokens (F_app), the projector's output (what replaces the placeholders in the LLM's input), and
+a pixel baseline (mean absolute background-subtracted intensity per frame). It sets the model's benchmark accuracy
+on the same items beside them: a read-out far above the model's accuracy means the LLM does not use what it gets.
 Results: benchmarks/results/tactile_readout.{json,md}.
 """
 
@@ -22,7 +22,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, publish, stamp
 
-TASKS = ("TFA-hardness", "TFA-protrusion", "TFA-elasticity", "TFA-friction")
+TASKS = ("TFA-hardness", "TFA-protrusion", "TFA-elasticity", "TFA-friction", "RFOR")
 
 
 def _clip_features(model, processor, keys: list, cache: Path) -> dict[str, np.ndarray]:
@@ -57,7 +57,12 @@ def _items(bench: Path, split: str, task: str) -> tuple[list, list]:
 def _features(model, processor, bench: Path, split: str, task: str, cache: Path) -> tuple[dict, np.ndarray, list]:
     items, keys = _items(bench, split, task)
     feats = _clip_features(model, processor, [k[0] for k in keys], cache)
-    return feats, np.array([i.gold["level"] for i in items]), items
+    return feats, np.array([_label(i) for i in items]), items
+
+
+def _label(item) -> int:
+    """The class a read-out predicts: the attribute's level, or 1 for a real fruit and 0 for a fake one (RFOR)."""
+    return int(item.gold["real"]) if item.task == "RFOR" else int(item.gold["level"])
 
 
 def _ridge(x_train: np.ndarray, targets: np.ndarray, x_test: np.ndarray, lam: float) -> np.ndarray:
@@ -69,7 +74,8 @@ def _ridge(x_train: np.ndarray, targets: np.ndarray, x_test: np.ndarray, lam: fl
 
 def ridge_accuracy(x_train: np.ndarray, y_train: np.ndarray, x_test: np.ndarray, y_test: np.ndarray,
                    lam: float = 100.0) -> float:
-    return float((_ridge(x_train, np.eye(3)[y_train], x_test, lam).argmax(1) == y_test).mean())
+    classes = int(max(y_train.max(), y_test.max())) + 1
+    return float((_ridge(x_train, np.eye(classes)[y_train], x_test, lam).argmax(1) == y_test).mean())
 
 
 def compare_by_scores(item, scores: list[float]) -> bool:
@@ -166,20 +172,21 @@ def main() -> None:
         train_x, train_y, _ = _features(model, processor, bench, "train", task, cache)
         tfa_train[task] = (train_x, train_y)
         test_x, test_y, items = _features(model, processor, bench, "test", task, cache)
-        majority = float(np.mean(test_y == np.bincount(train_y, minlength=3).argmax()))
+        majority = float(np.mean(test_y == np.bincount(train_y).argmax()))
         result = {name: ridge_accuracy(train_x[name], train_y, test_x[name], test_y) for name in train_x}
         model_acc = np.mean([scored[i.id] for i in items]) if scored and all(i.id in scored for i in items) else None
-        payload[task] = {"n_train": len(train_y), "n_test": len(test_y), "majority": majority, **result,
-                         "model_accuracy": None if model_acc is None else float(model_acc)}
-        rows.append([task, len(train_y), len(test_y), majority, *result.values(),
+        objects = len({i.objects[0] for i in items})
+        payload[task] = {"n_train": len(train_y), "n_test": len(test_y), "test_objects": objects, "majority": majority,
+                         **result, "model_accuracy": None if model_acc is None else float(model_acc)}
+        rows.append([task, len(train_y), len(test_y), objects, majority, *result.values(),
                      "–" if model_acc is None else float(model_acc)])
     info = stamp()
     md = header_md("Tactile read-out: is the information in the tactile tokens?", info)
     md += (f"Model: `{model_dir}`. Ridge classifier (λ = 100, standardised features) fitted on the train split's "
            "clips, scored on the test split's clips (objects never seen in training). DynTAC-Sim-Bench (simulated). "
            "The last column is the model's own strict benchmark accuracy on the same test items (seed 0).\n\n")
-    md += md_table(["task", "train clips", "test clips", "majority", "appearance tokens", "projector output",
-                    "pixel intensity per frame", "model (benchmark)"], rows)
+    md += md_table(["task", "train clips", "test clips", "test objects", "majority", "appearance tokens",
+                    "projector output", "pixel intensity per frame", "model (benchmark)"], rows)
     comparisons = comparison_ceiling(model, processor, bench, cache, tfa_train, scored)
     md += ("\n## Comparisons: is the order of two or three objects in the tokens?\n\n"
            "SFD and SOI test items answered without the LLM: a ridge regression of the attribute's level, fitted on "
