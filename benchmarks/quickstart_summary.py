@@ -7,7 +7,7 @@ The quickstart is measured from a fresh clone with the README's first command, i
         > quickstart.log 2>&1
     python benchmarks/quickstart_summary.py --log quickstart.log --run runs/quickstart
 
-Results: benchmarks/results/quickstart.{json,md} (the run's report.md is embedded).
+Results: benchmarks/results/quickstart.{json,md} (the run's report.md is embedded; ``--name`` for another stem).
 """
 
 from __future__ import annotations
@@ -51,8 +51,12 @@ def main() -> None:
     parser.add_argument("--log", type=Path, required=True)
     parser.add_argument("--run", type=Path, default=Path("runs/quickstart"))
     parser.add_argument("--note", default="", help="What else ran on the machine meanwhile, etc.")
+    parser.add_argument("--name", default="quickstart", help="Result file stem under benchmarks/results/ (e.g. "
+                                                             "quickstart_seeds for a --seeds 3 re-run of a run).")
     parser.add_argument("--command", default='python3 -m venv .venv && .venv/bin/pip install -q -e ".[train]" && '
-                                             '.venv/bin/tacreasoner quickstart')
+                                             '.venv/bin/tacreasoner quickstart (from a fresh clone, fresh virtual '
+                                             'environment)')
+    parser.add_argument("--title", default="Quickstart: the whole pipeline from a fresh clone")
     args = parser.parse_args()
     stages, total, ask = parse_log(args.log.read_text(encoding="utf-8", errors="replace"))
     if not stages:
@@ -61,8 +65,8 @@ def main() -> None:
     results = json.loads((args.run / "report.json").read_text()) if (args.run / "report.json").is_file() else {}
     stage_total = sum(s["seconds"] or 0 for s in stages)
     info = stamp()
-    info["command"] = args.command + " (from a fresh clone, fresh virtual environment)"
-    md = header_md("Quickstart: the whole pipeline from a fresh clone", info)
+    info["command"] = args.command
+    md = header_md(args.title, info)
     md += (f"**Wall time: {stage_total / 60:.1f} min for the quickstart's stages**"
            + (f"; {total / 60:.1f} min including creating the virtual environment and installing" if total else "")
            + ". Target: ≤ 20 minutes on 2 CPU cores.\n\n" + (f"Note: {args.note}\n\n" if args.note else ""))
@@ -70,7 +74,7 @@ def main() -> None:
     if ask:
         md += "\nThe `ask` stage (one held-out test clip):\n\n```\n" + "\n".join(ask) + "\n```\n"
     md += "\n---\n\nThe run's own report (`runs/quickstart/report.md`):\n\n" + report.replace("# ", "## ", 1)
-    publish("quickstart", {**info, "note": args.note, "stages": stages, "stage_seconds": stage_total,
+    publish(args.name, {**info, "note": args.note, "stages": stages, "stage_seconds": stage_total,
                            "total_seconds": total, "ask": ask, "results": results}, md)
 
 
