@@ -414,6 +414,14 @@ class TactileProjector(nn.Module):
         ``per_sample`` (videos per prompt, B) and ``question`` (B×Dq), read by the cross-video layer."""
         return self.project(features, slots, per_sample, question)[0]
 
+    def loud_option_marks(self, text_rows: torch.Tensor, seed: int) -> None:
+        """Start the option marks as loud as a text token (``text_rows``: the LLM's embedding rows), as the verdicts
+        start as loud as a tactile one: from zero they stay unread."""
+        generator = torch.Generator().manual_seed(seed)
+        with torch.no_grad():
+            marks = _as_loud_as_a_token(text_rows.float(), self.option_marks.shape, generator)
+            self.option_marks.copy_(marks.to(self.option_marks.dtype))
+
     def mark_options(self, embeds: torch.Tensor, option: torch.Tensor, places: torch.Tensor) -> torch.Tensor:
         """``embeds`` (B×L×D) with each matched option's name tokens (``option``: B×L, the option index of each
         token, −1 elsewhere) carrying the mark of the video place the matcher assigns that option (``places``,

@@ -59,12 +59,7 @@ def fit_comparator(model: Any, processor: Any, examples: Sequence[Tokenized], ba
     if named:
         out.update(fusion.fit_names(videos[len(chosen):], options[len(chosen):],
                                     torch.tensor([e.assignment for e in named]), seed=seed))
-        marks = model.projector.option_marks
-        with torch.no_grad():  # as loud as a text token, as the verdicts are as loud as a tactile one
-            rows = model.get_input_embeddings().weight.float()
-            scale = rows.pow(2).sum(-1).mean().sqrt() / rows.shape[1] ** 0.5
-            generator = torch.Generator().manual_seed(seed + 2)
-            marks.copy_((torch.randn(marks.shape, generator=generator) * scale).to(marks.dtype))
+        model.projector.loud_option_marks(model.get_input_embeddings().weight, seed + 2)
     for p in fusion.comparator_parameters:
         p.requires_grad_(False)
     return out

@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -108,23 +109,24 @@ class DataSettings:
         if self.max_items is not None and self.max_items < 1:
             raise ValueError(f"data.max_items must be at least 1, got {self.max_items}")
         if self.repeat is not None:
-            from tacreasoner.tasks.schema import TASKS
-
             if not isinstance(self.repeat, dict):
                 raise ValueError(f"data.repeat must map task names to whole numbers ≥ 1, got {self.repeat!r}")
+            _check_task_names(self.repeat, "data.repeat")
             for task, times in self.repeat.items():
-                if task not in TASKS:
-                    raise ValueError(f"data.repeat: unknown task {task!r}; known: {', '.join(TASKS)}")
                 if not isinstance(times, int) or isinstance(times, bool) or times < 1:
                     raise ValueError(f"data.repeat.{task} must be a whole number ≥ 1, got {times!r}")
         if self.tasks is not None:
-            from tacreasoner.tasks.schema import TASKS
-
-            unknown = [t for t in self.tasks if t not in TASKS]
-            if unknown:
-                raise ValueError(f"data.tasks: unknown task(s) {unknown}; known: {', '.join(TASKS)}")
+            _check_task_names(self.tasks, "data.tasks")
             if "TSA" in self.tasks:
                 raise ValueError("data.tasks: TSA is the zero-shot task and is never trained on")
+
+
+def _check_task_names(names: Iterable[str], key: str) -> None:
+    from tacreasoner.tasks.schema import TASKS
+
+    unknown = [t for t in names if t not in TASKS]
+    if unknown:
+        raise ValueError(f"{key}: unknown task(s) {unknown}; known: {', '.join(TASKS)}")
 
 
 @dataclass
