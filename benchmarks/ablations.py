@@ -18,14 +18,16 @@ Variants (Table 3: DynEncoder × CoT-SFT; Table 4: training stages; plus the enc
     no_cross       no cross-video layer and comparator: each video of a comparison encoded alone (the default
                    before the ninth session)
     no_names       the cross-video layer without its name matcher (OSC prompts get the comparator's pick)
+    no_reader      no clip reader: single clips' tokens carry no fitted level vectors (the default before the
+                   twelfth session)
     plain_hardness_only  diagnostic (not in the paper, not run by default): Stage II on plain TFA-hardness only
     plain_tfa_only       diagnostic (not run by default): both stages on the four TFA attributes only, Stage II
                          on plain answers, 1200 steps (~300 per attribute)
 
 Each variant is trained and evaluated on the held-out test objects; the table gives per-task accuracy with
 Wilson 95% intervals and the exact McNemar p-value of each variant against `full` on the same items.
-no_cot and no_stage2 change Stage II only, so they start from the full model's Stage I (copied). Everything is
-resumable (finished variants are reused). Results: benchmarks/results/ablations.{json,md}.
+no_cot, no_stage2 and no_reader change Stage II only, so they start from the full model's Stage I (copied).
+Everything is resumable (finished variants are reused). Results: benchmarks/results/ablations.{json,md}.
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ VARIANTS: dict[str, dict] = {
     "cls_only": {"model": {"encoder": {"tokens_per_video": 1}}},
     "no_cross": {"model": {"encoder": {"cross_video": 0}}},
     "no_names": {"model": {"encoder": {"cross_video_names": False}}},
+    "no_reader": {"model": {"encoder": {"clip_reader": False}}},
     # diagnostic, not in the paper: is the LLM side able to learn one attribute when it sees only that task?
     "plain_hardness_only": {"data": {"stage2_data": "plain", "tasks": ["TFA-hardness"]}},
     # diagnostic: do the four attribute questions interfere with each other, or do the other tasks?
@@ -58,7 +61,7 @@ VARIANTS: dict[str, dict] = {
                                                                   "TFA-friction"]},
                        "stage2": {"steps": 1200}},
 }
-SHARED_STAGE1 = ("no_cot", "no_stage2")
+SHARED_STAGE1 = ("no_cot", "no_stage2", "no_reader")
 """Variants that change Stage II only: they start from the full model's Stage I (copied, not retrained with the
 same seed and settings), which saves two Stage I runs and keeps Stage I's randomness out of their comparison."""
 DESCRIPTIONS = {
@@ -72,6 +75,7 @@ DESCRIPTIONS = {
     "cls_only": "1 token per video (CLS only)",
     "no_cross": "no cross-video comparator",
     "no_names": "no name matcher (OSC)",
+    "no_reader": "no clip reader (single-clip level vectors)",
     "plain_hardness_only": "diagnostic: Stage II on plain TFA-hardness answers only",
     "plain_tfa_only": "diagnostic: Stage II on plain answers of the four TFA attributes, 1200 steps",
 }

@@ -156,3 +156,14 @@ def test_merge_adapter_command(tmp_path) -> None:
     bad = runner.invoke(app, ["merge-adapter", str(tmp_path / "base"), str(tmp_path / "nowhere"),
                               "--out", str(tmp_path / "m2")])
     assert bad.exit_code == 2 and "adapter_config.json" in bad.output
+
+
+def test_the_clip_reader_trains_in_stage_two_only() -> None:
+    model = tiny_model(clip_reader=True)
+    configure_stage(model, 1)
+    assert not model.projector.clip_reader.readings.requires_grad  # unfitted in Stage I: nothing to learn
+    assert model.projector.linear_1.weight.requires_grad
+    trained = configure_stage(model, 2, LoraSettings(r=4, alpha=8, dropout=0.0))
+    names = trainable_parameter_names(trained)
+    assert any("clip_reader.readings" in n for n in names)
+    assert not any("readout" in n for n in names)  # the read-out is a fitted buffer

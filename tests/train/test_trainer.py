@@ -231,3 +231,26 @@ def test_stage_two_fits_the_comparator_first_and_keeps_it_frozen(inputs, tmp_pat
         assert torch.equal(fusion.get_buffer(name) if buffer else fusion.get_parameter(name),
                            other.get_buffer(name) if buffer else other.get_parameter(name)), name
     assert not torch.equal(model.projector.linear_1.weight, shorter.projector.linear_1.weight)
+
+
+def test_stage_two_fits_the_clip_reader_on_train_gold_even_on_a_stage_one_model_without_one(
+        inputs, two_stage_run, tmp_path) -> None:
+    import shutil
+
+    from trainsetup import ENCODER
+
+    from tacreasoner.model.build import load_model
+    from tacreasoner.model.clip_reader import READER_TRAITS
+
+    out = tmp_path / "reader"
+    shutil.copytree(two_stage_run / "stage1", out / "stage1", ignore=shutil.ignore_patterns("checkpoint-*"))
+    assert load_model(out / "stage1" / "model")[0].projector.clip_reader is None  # Stage I was built without it
+    config = tiny_config(inputs, out, model={"encoder": {**ENCODER, "clip_reader": True}})
+    train_stage(config, 2)
+    fitted = json.loads((out / "stage2" / "run.json").read_text())["clip_reader"]
+    assert fitted["videos"] > 0 and "hardness" in fitted
+    assert all(0.0 <= fitted[t]["read"] <= 1.0 and fitted[t]["videos"] > 0 for t in READER_TRAITS if t in fitted)
+    model, _ = load_model(out / "stage2" / "model")
+    reader = model.projector.clip_reader
+    assert model.encoder_config.clip_reader and reader is not None and reader.fitted
+    assert bool(reader.readout_weight.abs().sum() > 0) and bool(reader.readings.abs().sum() > 0)

@@ -65,6 +65,11 @@ class TactileEncoderConfig:
     holds videos gets the assignment of names to videos that best fits the videos' features (a ridge map from a
     video's features to its name's embedding, fitted with the comparator), written into its tokens instead of the
     comparator's pick (OSC; docs/training.md)."""
+    clip_reader: bool = False
+    """Each video's tokens carry, per trait (attribute levels, real or fake, contact state), a vector for the level a
+    ridge read-out of its encoder output gives (``ClipReader``, in the projector), fitted when Stage II starts on the
+    training clips' gold (``train.reader``) and frozen: Stage II keeps the single-clip readings Stage I had
+    (docs/training.md)."""
     video_labels: bool = False
     """Prompts holding several videos name each before its tokens ("Video 2: "), as the reasoning names them: the
     LLM can then find a video's tokens by its name (the processor's job; kept here so a saved model keeps it)."""
@@ -122,6 +127,8 @@ class TactileEncoderConfig:
         if not isinstance(self.cross_video_loss, (int, float)) or isinstance(self.cross_video_loss, bool) \
                 or not self.cross_video_loss >= 0:
             raise ValueError(f"encoder config: cross_video_loss must be a number ≥ 0, got {self.cross_video_loss!r}")
+        if not isinstance(self.clip_reader, bool):
+            raise ValueError(f"encoder config: clip_reader must be true or false, got {self.clip_reader!r}")
         if not isinstance(self.cross_video_names, bool):
             raise ValueError(f"encoder config: cross_video_names must be true or false, got {self.cross_video_names!r}")
         if not isinstance(self.video_labels, bool):

@@ -80,7 +80,7 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         enc = self.encoder_config
         self.projector = TactileProjector(enc.hidden_size, config.text_hidden_size, enc.video_slots, enc.cross_video,
                                           enc.fusion_heads, enc.mlp_ratio, config.text_hidden_size,
-                                          enc.tokens_per_video, len(enc.cross_video_attributes))
+                                          enc.tokens_per_video, len(enc.cross_video_attributes), enc.clip_reader)
         self.post_init()
 
     # ------------------------------------------------------------------ HF plumbing
@@ -99,6 +99,20 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
     @property
     def encoder_config(self) -> TactileEncoderConfig:
         return self.tactile_encoder.config
+
+    def set_clip_reader(self, on: bool) -> None:
+        """Give the model an unfitted clip reader (``encoder.clip_reader``), or take it away. The reader is fitted
+        when Stage II starts and does nothing before, so Stage II's config may decide it for any Stage I model."""
+        if on == (self.projector.clip_reader is not None):
+            return
+        from tacreasoner.model.clip_reader import ClipReader
+
+        enc = self.encoder_config.replace(clip_reader=on)
+        self.tactile_encoder.config = enc
+        self.config.encoder = enc.to_dict()
+        weight = self.projector.linear_1.weight
+        self.projector.clip_reader = ClipReader(enc.hidden_size, enc.tokens_per_video).to(weight.device, weight.dtype) \
+            if on else None
 
     # ------------------------------------------------------------------ building from parts
     @classmethod

@@ -110,6 +110,8 @@ def configure_stage(model: TacReasonerForCausalLM, stage: int, lora: LoraSetting
     if stage == 1:
         for part in (encoder.temporal, encoder.fusion, encoder.sensor_embed, model.projector):
             _train(part)
+        if model.projector.clip_reader is not None:  # unfitted until Stage II: its vectors get no gradient here
+            _freeze(model.projector.clip_reader)
         _train_new_rows(model)
         return model
     from peft import get_peft_model

@@ -18,7 +18,9 @@ from torch import nn
 from torch.nn import functional as F
 
 from tacreasoner.model.appearance import AppearanceEncoder
+from tacreasoner.model.clip_reader import ClipReader
 from tacreasoner.model.encoder_config import TactileEncoderConfig
+from tacreasoner.model.fitting import as_loud_as_a_token, ridge_solve
 from tacreasoner.model.temporal import TemporalBranch
 
 __all__ = ["CrossAttentionFusion", "CrossVideoFusion", "DynamicTactileEncoder", "TactileProjector", "VideoSlots"]
@@ -185,14 +187,14 @@ class CrossVideoFusion(nn.Module):
         with torch.no_grad():
             self.name_mean.copy_(y.mean(0))
             self.name_std.copy_(y.std(0, unbiased=False) + 1e-6)
-            weight, bias = _ridge_solve(x, (y - self.name_mean) / self.name_std, penalty)
+            weight, bias = ridge_solve(x, (y - self.name_mean) / self.name_std, penalty)
             self.names.weight.copy_(weight.to(self.names.weight.dtype))
             self.names.bias.copy_(bias.to(self.names.bias.dtype))
             self.names_fitted.zero_()
             for v in videos:
                 self.names_fitted[len(v)] = True
             generator = torch.Generator().manual_seed(seed + 1)
-            self.assignments.copy_(_as_loud_as_a_token(x, self.assignments.shape, generator))
+            self.assignments.copy_(as_loud_as_a_token(x, self.assignments.shape, generator))
         for p in self.names.parameters():
             p.requires_grad_(False)
         right = 0
@@ -253,7 +255,7 @@ class CrossVideoFusion(nn.Module):
                 optimizer.step()
         self.directions.requires_grad_(False)
         with torch.no_grad():  # the verdict starts as loud as a token (it stayed at 3% of one, unread, from zero)
-            self.verdict.copy_(_as_loud_as_a_token(flat, self.verdict.shape, generator))
+            self.verdict.copy_(as_loud_as_a_token(flat, self.verdict.shape, generator))
         right = {"pick": 0, "attribute": 0, "comparative": 0}
         with torch.no_grad():
             for feats, asked, gold in stacked.values():
@@ -329,30 +331,12 @@ class CrossVideoFusion(nn.Module):
         return self.assignments[torch.arange(pairs.shape[1], device=pairs.device), pairs].sum(1)
 
 
-def _as_loud_as_a_token(flat: torch.Tensor, shape: torch.Size, generator: torch.Generator) -> torch.Tensor:
-    """Random verdict vectors whose norm is a token's mean norm in ``flat`` (videos × tokens·hidden)."""
-    hidden = shape[-1]
-    scale = flat.reshape(-1, hidden).pow(2).sum(-1).mean().sqrt() / hidden ** 0.5
-    return torch.randn(shape, generator=generator) * scale
-
-
-def _ridge_solve(x: torch.Tensor, y: torch.Tensor, penalty: float) -> tuple[torch.Tensor, torch.Tensor]:
-    """Ridge regression of ``y`` on per-dimension standardised ``x`` with the standardisation folded in: the weight
-    (out×in) and bias of a Linear applied to raw ``x``."""
-    x = x.double()
-    mean, std = x.mean(0), x.std(0) + 1e-6
-    z = (x - mean) / std
-    y = y.double()
-    w = torch.linalg.solve(z.T @ z + penalty * torch.eye(z.shape[1], dtype=z.dtype), z.T @ (y - y.mean(0)))
-    return (w / std[:, None]).T, y.mean(0) - (mean / std) @ w
-
-
 def _ridge(head: nn.Sequential, questions: torch.Tensor, targets: torch.Tensor, penalty: float = 10.0) -> None:
     """Set ``head`` (LayerNorm → Linear) to the ridge regression of ``targets`` on its normalised, per-dimension
     standardised inputs: closed form, and it names unseen questions' attribute where a gradient-fitted map of the
     same vectors over-fits the templates it saw (150 of 150 in comparator_probe.md)."""
     norm, linear = head[0], head[1]
-    weight, bias = _ridge_solve(norm(questions.to(linear.weight.dtype)), targets, penalty)
+    weight, bias = ridge_solve(norm(questions.to(linear.weight.dtype)), targets, penalty)
     linear.weight.copy_(weight.to(linear.weight.dtype))
     linear.bias.copy_(bias.to(linear.bias.dtype))
 
@@ -392,15 +376,16 @@ class VideoSlots(nn.Module):
 
 
 class TactileProjector(nn.Module):
-    """E_V = W2·GELU(W1·F_enh + b1) + b2, into the LLM's embedding size (+ :class:`VideoSlots` and
-    :class:`CrossVideoFusion` when asked; both train with the projector in Stages I and II)."""
+    """E_V = W2·GELU(W1·F_enh + b1) + b2, into the LLM's embedding size (+ :class:`VideoSlots`,
+    :class:`CrossVideoFusion` and :class:`ClipReader` when asked; all train with the projector in Stages I and II)."""
 
     def __init__(self, in_dim: int, out_dim: int, video_slots: int = 0, cross_video: int = 0,
                  heads: int = 4, mlp_ratio: float = 4.0, question_dim: int = 0, tokens_per_video: int = 1,
-                 attributes: int = 1) -> None:
+                 attributes: int = 1, clip_reader: bool = False) -> None:
         super().__init__()
         self.cross_video = CrossVideoFusion(in_dim, heads, mlp_ratio, cross_video, question_dim or in_dim,
                                             tokens_per_video, attributes) if cross_video else None
+        self.clip_reader = ClipReader(in_dim, tokens_per_video) if clip_reader else None
         self.linear_1 = nn.Linear(in_dim, out_dim)
         self.act = nn.GELU()
         self.linear_2 = nn.Linear(out_dim, out_dim)
@@ -419,7 +404,7 @@ class TactileProjector(nn.Module):
         start as loud as a tactile one: from zero they stay unread."""
         generator = torch.Generator().manual_seed(seed)
         with torch.no_grad():
-            marks = _as_loud_as_a_token(text_rows.float(), self.option_marks.shape, generator)
+            marks = as_loud_as_a_token(text_rows.float(), self.option_marks.shape, generator)
             self.option_marks.copy_(marks.to(self.option_marks.dtype))
 
     def mark_options(self, embeds: torch.Tensor, option: torch.Tensor, places: torch.Tensor) -> torch.Tensor:
@@ -440,11 +425,15 @@ class TactileProjector(nn.Module):
                 ) -> tuple[torch.Tensor, torch.Tensor | None]:
         """:meth:`forward` plus the cross-video comparator's loss against ``winner`` (B or B×3; None without
         one); ``places``: the name matcher's assignment (``CrossVideoFusion.places``)."""
-        comparison_loss = None
+        comparison_loss, read = None, features
+        if per_sample is None:
+            per_sample = torch.ones(len(features), dtype=torch.long, device=features.device)
         if self.cross_video is not None:
-            if per_sample is None:
-                per_sample = torch.ones(len(features), dtype=torch.long, device=features.device)
             features, comparison_loss = self.cross_video(features, per_sample, question, winner, places)
+        if self.clip_reader is not None:  # reads a video's own encoder output, as it was fitted on, and speaks
+            # only in one-video prompts: written into comparisons too it took SFD from 75% to 51% (docs/training.md)
+            alone = (per_sample == 1).repeat_interleave(per_sample).to(features.dtype)
+            features = features + self.clip_reader.vectors(read).unsqueeze(1) * alone[:, None, None]
         out = self.linear_2(self.act(self.linear_1(features)))
         if self.video_slot is None:
             return out, comparison_loss

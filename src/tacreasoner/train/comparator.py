@@ -49,7 +49,7 @@ def fit_comparator(model: Any, processor: Any, examples: Sequence[Tokenized], ba
     fusion, config = model.projector.cross_video, model.encoder_config
     was_training = model.training
     model.eval()
-    videos, questions, options = _features(model, processor, [*chosen, *named], bank, batch_size, progress)
+    videos, questions, options = encoder_outputs(model, processor, [*chosen, *named], bank, batch_size, progress)
     model.train(was_training)
     out: dict[str, Any] = {"comparisons": 0}
     if chosen:
@@ -65,11 +65,11 @@ def fit_comparator(model: Any, processor: Any, examples: Sequence[Tokenized], ba
     return out
 
 
-def _features(model: Any, processor: Any, examples: Sequence[Tokenized], bank: VideoBank, batch_size: int,
-              progress: Callable[[int, int], None] | None,
-              ) -> tuple[list[torch.Tensor], list[torch.Tensor], list[torch.Tensor]]:
-    """Per example the frozen encoder's output for its videos, its question vector and its options' name vectors
-    (what the fits read)."""
+def encoder_outputs(model: Any, processor: Any, examples: Sequence[Tokenized], bank: VideoBank, batch_size: int = 16,
+                    progress: Callable[[int, int], None] | None = None,
+                    ) -> tuple[list[torch.Tensor], list[torch.Tensor], list[torch.Tensor]]:
+    """Per example the frozen encoder's output for its videos (k×N×H), and with a cross-video layer per batch its
+    question vectors and per example its options' name vectors (what the fits read)."""
     videos: list[torch.Tensor] = []
     questions: list[torch.Tensor] = []
     options: list[torch.Tensor] = []
@@ -81,8 +81,10 @@ def _features(model: Any, processor: Any, examples: Sequence[Tokenized], bank: V
                 batch["input_ids"], batch["pixel_values"], batch["attention_mask"], batch["question_mask"],
                 batch["sensor_ids"], batch.get("appearance_tokens"))
             videos.extend(features.float().split(per_sample.tolist()))
-            questions.append(question.float())
-            options.extend(vectors[:count].float() for vectors, count in zip(*listed, strict=True))
+            if question is not None:
+                questions.append(question.float())
+            if listed is not None:
+                options.extend(vectors[:count].float() for vectors, count in zip(*listed, strict=True))
             if progress is not None:
                 progress(min(start + batch_size, len(examples)), len(examples))
     return videos, questions, options

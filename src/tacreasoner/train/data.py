@@ -92,7 +92,8 @@ def video_key(ref: VideoRef, root: Path, where: str) -> VideoKey:
     return (str(path), ref.start, ref.end)
 
 
-def _bench_items(bench_dir: Path) -> tuple[Path, list[QAItem]]:
+def train_items(bench_dir: Path) -> tuple[Path, list[QAItem]]:
+    """The benchmark's train split and the root its relative video paths start from."""
     from tacreasoner.tasks.bench import load_bench
 
     info, items = load_bench(bench_dir, "train")
@@ -160,7 +161,7 @@ def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None 
                   video_readings: bool = False, comparisons: bool = False) -> list[TrainExample]:
     """The examples of ``stage`` (see the module doc); TSA is never among them."""
     bench = Path(bench)
-    root, items = _bench_items(bench)
+    root, items = train_items(bench)
     if stage == 1:
         wanted = (*STAGE1_TASKS, *COMPARISON_TASKS) if comparisons else STAGE1_TASKS
         examples = _from_items([i for i in items if i.task in wanted], root, _answer_only)

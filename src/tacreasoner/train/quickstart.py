@@ -28,11 +28,12 @@ __all__ = ["QuickstartPaths", "distributed_config", "evaluate_seeds", "quickstar
 
 TINY_SETTINGS: dict[str, Any] = {
     "model": {"encoder": {"use_temporal": True, "question_conditioning": True, "tokens_per_video": 5,
-                          "cross_video": 3}},
+                          "cross_video": 3, "clip_reader": True}},
     "stage1": {"steps": 1800, "batch_size": 16, "lr": 1e-3, "warmup_ratio": 0.05},
     "stage2": {"steps": 1000, "batch_size": 8, "lr": 2e-3, "projector_lr": 1e-3, "warmup_ratio": 0.05},
     "lora": {"r": 128, "alpha": 256, "dropout": 0.05},
-    "data": {"max_length": 768, "group_by_length": False, "repeat": {"OSC": 4, "SFD": 2, "SOI": 2}},
+    "data": {"max_length": 768, "group_by_length": False,
+             "repeat": {"OSC": 4, "SFD": 2, "SOI": 2, "RFOR": 2, "OCSE": 2, "TFA-combined": 2}},
     "runtime": {"mixed_precision": "auto", "log_with": "tensorboard", "log_every": 10, "checkpoint_every": 50},
 }
 """The tiny default (the same values as configs/tiny-cpu.yaml; a test keeps the two in step)."""

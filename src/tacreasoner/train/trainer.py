@@ -35,6 +35,7 @@ from tacreasoner.train.comparator import fit_comparator, fit_sets
 from tacreasoner.train.config import TrainConfig
 from tacreasoner.train.data import VideoBank, batch_plan, collate, load_examples, repeat_tasks, tokenize_examples
 from tacreasoner.train.progress import StageBar
+from tacreasoner.train.reader import clip_labels, fit_clip_reader, labelled
 from tacreasoner.train.state import (
     cosine_with_warmup,
     latest_checkpoint,
@@ -130,7 +131,10 @@ def _build(config: TrainConfig, stage: int) -> tuple[Any, Any]:
     if config.model.attn_implementation:
         kwargs["attn_implementation"] = config.model.attn_implementation
     if stage == 2 and not config.stage1.skip:
-        return load_model(config.stage_dir(1) / MODEL_DIR, **kwargs)
+        model, processor = load_model(config.stage_dir(1) / MODEL_DIR, **kwargs)
+        if "clip_reader" in config.model.encoder:  # fitted in Stage II only: Stage II's config decides
+            model.set_clip_reader(bool(config.model.encoder["clip_reader"]))
+        return model, processor
     return build_model(config.model.llm, appearance=config.model.appearance, encoder=config.model.encoder,
                        system_prompt=config.model.system_prompt, **kwargs)
 
@@ -237,11 +241,16 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
     bank.build(video_keys, progress=lambda done, _total: bar.update(done), cache_dir=config.data.video_cache)
     if config.data.cache_appearance:
         bank.cache_appearance(base.tactile_encoder)
-    comparator = None
+    fitted: dict[str, Any] = {}
+    if stage == 2 and base.projector.clip_reader is not None:  # encoder frozen from here: fit, then freeze
+        labels = clip_labels(config.data.bench)
+        bar.stage("fitting clip reader", len(labelled(tokenized, labels)))
+        fitted["clip_reader"] = fit_clip_reader(base, processor, tokenized, bank, labels, config.seed,
+                                                progress=lambda done, _total: bar.update(done))
     if stage == 2 and base.projector.cross_video is not None:  # encoder frozen from here: fit, then freeze
         bar.stage("fitting comparator", sum(len(s) for s in fit_sets(base, tokenized)))
-        comparator = fit_comparator(base, processor, tokenized, bank, config.seed,
-                                    progress=lambda done, _total: bar.update(done))
+        fitted["comparator"] = fit_comparator(base, processor, tokenized, bank, config.seed,
+                                              progress=lambda done, _total: bar.update(done))
     tokenized = repeat_tasks(tokenized, config.data.repeat)
     # the comparator trains with the LLM's loss only in Stage I and only when asked (encoder.cross_video_loss):
     # only then do the batches carry its targets
@@ -284,8 +293,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
                 "threads": torch.get_num_threads(),
                 "trainable_parameters": sum(p.numel() for p in base.parameters() if p.requires_grad),
                 "total_parameters": sum(p.numel() for p in base.parameters())}
-    if comparator is not None:
-        run_info["comparator"] = comparator
+    run_info.update(fitted)
     if accelerator.is_main_process:
         out.mkdir(parents=True, exist_ok=True)
         write_json(out / RUN_FILE, run_info)
