@@ -1,8 +1,8 @@
 """One process of the 2-process CPU DDP test (``test_ddp.py``), started by ``torch.distributed.run``.
 
-    python -m torch.distributed.run --nproc_per_node 2 tests/train/ddp_worker.py CONFIG.json OUT_DIR
+    python -m torch.distributed.run --nproc_per_node 2 tests/train/ddp_worker.py CONFIG.json OUT_DIR [STAGE]
 
-Reads a ``TrainConfig.to_dict()`` JSON, runs ``train_stage(config, 2)`` and writes this process's final
+Reads a ``TrainConfig.to_dict()`` JSON, runs ``train_stage(config, STAGE)`` (default 2) and writes this process's final
 trainable parameters to ``OUT_DIR/rank{RANK}.safetensors``. The trainer saves on the main process
 only, so the weights are caught with :func:`capture_trainable_weights` (also used by the test for its
 1-process reference run, so both sides are captured the same way).
@@ -61,7 +61,7 @@ def capture_trainable_weights() -> Iterator[dict[str, torch.Tensor]]:
         weights.update(_snapshot(modules[0]))
 
 
-def main(config_json: str, out_dir: str) -> None:
+def main(config_json: str, out_dir: str, stage: str = "2") -> None:
     from safetensors.torch import save_file
 
     from tacreasoner.train.config import TrainConfig
@@ -69,7 +69,7 @@ def main(config_json: str, out_dir: str) -> None:
 
     config = TrainConfig.from_dict(json.loads(Path(config_json).read_text(encoding="utf-8")))
     with capture_trainable_weights() as weights:
-        result = train_stage(config, 2)
+        result = train_stage(config, int(stage))
     rank = int(os.environ.get("RANK", "0"))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -79,6 +79,6 @@ def main(config_json: str, out_dir: str) -> None:
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 3:
-        raise SystemExit(f"usage: {sys.argv[0]} CONFIG.json OUT_DIR")
-    main(sys.argv[1], sys.argv[2])
+    if len(sys.argv) not in (3, 4):
+        raise SystemExit(f"usage: {sys.argv[0]} CONFIG.json OUT_DIR [STAGE]")
+    main(*sys.argv[1:])

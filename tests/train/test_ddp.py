@@ -42,10 +42,10 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _launch_two_processes(config_json: Path, weights_dir: Path) -> None:
+def _launch_two_processes(config_json: Path, weights_dir: Path, stage: int = 2) -> None:
     env = {**os.environ, "OMP_NUM_THREADS": "1", "TOKENIZERS_PARALLELISM": "false"}
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "--master_addr", "127.0.0.1",
-           "--master_port", str(_free_port()), str(WORKER), str(config_json), str(weights_dir)]
+           "--master_port", str(_free_port()), str(WORKER), str(config_json), str(weights_dir), str(stage)]
     try:
         done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
     except subprocess.TimeoutExpired as exc:
@@ -91,3 +91,34 @@ def test_two_processes_stay_in_sync_and_match_one_process_with_the_same_global_b
         torch.testing.assert_close(rank0[name], single[name], rtol=1e-4, atol=1e-5, msg=name)
     assert _losses(ddp_run) == pytest.approx(_losses(single_run), abs=1e-4)
     assert infos[0]["final_loss"] == pytest.approx(result.final_loss, abs=1e-5)
+
+
+def test_the_defaults_prompt_dependent_parts_train_under_ddp_in_both_stages(inputs, tmp_path) -> None:
+    """The tiny default's cross-video layer (its name matcher and assignment vectors speak only in OSC prompts
+    once fitted) and clip reader (one-video prompts only) leave parameters without a gradient in some batches,
+    which plain DDP refuses ("Expected to have finished reduction in the prior iteration")."""
+    from trainsetup import ENCODER
+
+    encoder = {**ENCODER, "cross_video": 3, "cross_video_names": True, "clip_reader": True}
+    config = tiny_config(inputs, tmp_path / "run", model={"encoder": encoder}, stage1={"steps": STEPS, "batch_size": 2},
+                         stage2={"steps": STEPS, "batch_size": 2}, lora={"r": 8, "alpha": 16, "dropout": 0.0},
+                         runtime={"threads": 1, "log_with": "none", "progress": False, "mixed_precision": "no"})
+    (tmp_path / "run").mkdir()
+    config_json = tmp_path / "run" / "config.json"
+    config_json.write_text(json.dumps(config.to_dict()))
+    for stage in (1, 2):  # one launch per stage, as `accelerate launch tacreasoner train --stage N` runs them
+        _launch_two_processes(config_json, tmp_path / f"weights{stage}", stage)
+
+    for stage in (1, 2):
+        info = json.loads((tmp_path / "run" / f"stage{stage}" / "run.json").read_text())
+        assert info["processes"] == 2, info
+        assert (tmp_path / "run" / f"stage{stage}" / "model").is_dir(), f"Stage {stage} saved no model"
+        infos = [json.loads((tmp_path / f"weights{stage}" / f"rank{r}.json").read_text()) for r in (0, 1)]
+        assert [i["steps"] for i in infos] == [STEPS, STEPS]
+        rank0 = load_file(str(tmp_path / f"weights{stage}" / "rank0.safetensors"))
+        rank1 = load_file(str(tmp_path / f"weights{stage}" / "rank1.safetensors"))
+        assert any("cross_video" in n for n in rank0)
+        for name in rank0:
+            assert torch.equal(rank0[name], rank1[name]), f"Stage {stage}: {name} differs between the ranks"
+    assert json.loads((tmp_path / "run" / "stage2" / "run.json").read_text())["clip_reader"]
+    assert any("clip_reader" in n for n in rank0)  # Stage II trains the reader's level vectors

@@ -168,7 +168,7 @@ def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_a
     that many steps without the final save (tests of interrupted runs). ``loss_hook(step, micro, loss)``
     may replace a micro-batch's loss (tests of the non-finite-loss guard).
     """
-    from accelerate import Accelerator
+    from accelerate import Accelerator, DistributedDataParallelKwargs
 
     settings = config.stage(stage)
     if settings.skip:
@@ -194,9 +194,13 @@ def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_a
     # Under torchrun on a machine without CUDA, Accelerate sets up (gloo) DDP only when told it runs on the CPU;
     # otherwise every process would train alone and all of them would write the same output_dir.
     world = int(os.environ.get("WORLD_SIZE", "1"))
+    # Parts of the model speak only in some prompts (the comparator's name matcher in OSC prompts, the clip
+    # reader in one-video prompts), so a batch can leave trainable parameters without a gradient, which plain
+    # DDP refuses; finding them costs one walk of the autograd graph per step.
+    unused = DistributedDataParallelKwargs(find_unused_parameters=True)
     accelerator = Accelerator(cpu=world > 1 and not torch.cuda.is_available(),
                               mixed_precision=_mixed_precision(config.runtime.mixed_precision), log_with=log_with,
-                              project_dir=str(out / "logs"))
+                              project_dir=str(out / "logs"), kwargs_handlers=[unused])
     if world > 1 and accelerator.num_processes == 1:
         raise RuntimeError(f"WORLD_SIZE is {world} but Accelerate set up no distributed training "
                            f"({accelerator.distributed_type}): the processes would each train alone")
