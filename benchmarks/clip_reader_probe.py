@@ -23,11 +23,21 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, publish, stamp
 
 
+def _bank(model, processor, tokenized: list, cache: Path):
+    """The videos of ``tokenized``, preprocessed and with the frozen ViT's tokens cached, as the trainer holds them."""
+    from tacreasoner.train.data import VideoBank
+
+    bank = VideoBank(processor.video_config, processor.sensor_types)
+    bank.build([k for e in tokenized for k in e.videos], cache_dir=cache)
+    bank.cache_appearance(model.tactile_encoder)
+    return bank
+
+
 def _test_items(model, processor, bench: Path, cache: Path) -> tuple[list, list]:
     """The single-clip test items and, per item, its video's encoder output."""
     from tacreasoner.tasks.bench import load_bench
     from tacreasoner.train.comparator import encoder_outputs
-    from tacreasoner.train.data import VideoBank, _answer_only, _from_items, bench_video_root, tokenize_examples
+    from tacreasoner.train.data import _answer_only, _from_items, bench_video_root, tokenize_examples
     from tacreasoner.train.reader import item_traits
 
     info, items = load_bench(bench, "test")
@@ -36,24 +46,23 @@ def _test_items(model, processor, bench: Path, cache: Path) -> tuple[list, list]
         processor, _from_items(items, bench_video_root(bench, info), _answer_only), max_length=10_000
     )
     assert not dropped
-    bank = VideoBank(processor.video_config, processor.sensor_types)
-    bank.build([k for e in tokenized for k in e.videos], cache_dir=cache)
-    bank.cache_appearance(model.tactile_encoder)
-    videos, _, _ = encoder_outputs(model, processor, tokenized, bank)
+    videos, _, _ = encoder_outputs(model, processor, tokenized, _bank(model, processor, tokenized, cache))
     return items, videos
 
 
 def _fit_like_the_trainer(model, processor, run: Path) -> None:
-    from tacreasoner.train.data import VideoBank, load_examples, tokenize_examples
+    """Fit a clip reader on the run's Stage II examples, with the quickstart's own data settings."""
+    from tacreasoner.train.data import load_examples, tokenize_examples
+    from tacreasoner.train.quickstart import QuickstartPaths, quickstart_config
     from tacreasoner.train.reader import clip_labels, fit_clip_reader
 
-    examples = load_examples(2, run / "bench", touchcot=run / "touchcot" / "touchcot" / "touchcot_train.jsonl")
-    tokenized, _ = tokenize_examples(processor, examples, 768)
-    bank = VideoBank(processor.video_config, processor.sensor_types)
-    bank.build([k for e in tokenized for k in e.videos], cache_dir=run / "video_cache")
-    bank.cache_appearance(model.tactile_encoder)
+    config = quickstart_config(QuickstartPaths(run), 0)
+    data = config.data
+    examples = load_examples(2, data.bench, touchcot=data.touchcot, stage2_data=data.stage2_data, tasks=data.tasks)
+    tokenized, _ = tokenize_examples(processor, examples, data.max_length)
+    bank = _bank(model, processor, tokenized, Path(data.video_cache))
     model.set_clip_reader(True)
-    fit_clip_reader(model, processor, tokenized, bank, clip_labels(run / "bench"), seed=0)
+    fit_clip_reader(model, processor, tokenized, bank, clip_labels(data.bench), seed=config.seed)
 
 
 def main() -> None:

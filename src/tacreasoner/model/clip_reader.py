@@ -5,8 +5,9 @@ well above chance; Stage II's LoRA then trades those readings for the comparison
 the ablation table: w/o Stage II reads hardness 60%, RFOR 76%, the full model 31%, 50%). Yet a linear read-out of
 the frozen encoder's output keeps them (benchmarks/results/tactile_readout.md). So, as the cross-video comparator
 does for picks, the read-out is fitted on the frozen encoder's features when Stage II starts (a ridge classifier per
-trait, closed form) and frozen, and each video's tokens carry one loud vector per trait for the level it reads:
-the LLM learns to name a level from a vector that says it, not from a faint direction in the features.
+trait, closed form) and frozen, and the video of a one-video prompt carries in its tokens one loud vector per trait
+for the level it reads (``TactileProjector.project``; in comparisons the levels blurred the comparator's pick): the
+LLM learns to name a level from a vector that says it, not from a faint direction in the features.
 """
 
 from __future__ import annotations

@@ -66,10 +66,10 @@ class TactileEncoderConfig:
     video's features to its name's embedding, fitted with the comparator), written into its tokens instead of the
     comparator's pick (OSC; docs/training.md)."""
     clip_reader: bool = False
-    """Each video's tokens carry, per trait (attribute levels, real or fake, contact state), a vector for the level a
-    ridge read-out of its encoder output gives (``ClipReader``, in the projector), fitted when Stage II starts on the
-    training clips' gold (``train.reader``) and frozen: Stage II keeps the single-clip readings Stage I had
-    (docs/training.md)."""
+    """The video of a one-video prompt carries in its tokens, per trait (attribute levels, real or fake, contact
+    state), a vector for the level a ridge read-out of its encoder output gives (``ClipReader``, in the projector),
+    fitted when Stage II starts on the training clips' gold (``train.reader``) and frozen: Stage II keeps the
+    single-clip readings Stage I had (docs/training.md)."""
     video_labels: bool = False
     """Prompts holding several videos name each before its tokens ("Video 2: "), as the reasoning names them: the
     LLM can then find a video's tokens by its name (the processor's job; kept here so a saved model keeps it)."""

@@ -377,7 +377,8 @@ class VideoSlots(nn.Module):
 
 class TactileProjector(nn.Module):
     """E_V = W2·GELU(W1·F_enh + b1) + b2, into the LLM's embedding size (+ :class:`VideoSlots`,
-    :class:`CrossVideoFusion` and :class:`ClipReader` when asked; all train with the projector in Stages I and II)."""
+    :class:`CrossVideoFusion` and :class:`ClipReader` when asked; they train with the projector, the clip reader in
+    Stage II only)."""
 
     def __init__(self, in_dim: int, out_dim: int, video_slots: int = 0, cross_video: int = 0,
                  heads: int = 4, mlp_ratio: float = 4.0, question_dim: int = 0, tokens_per_video: int = 1,
