@@ -28,6 +28,31 @@ def test_one_to_three_videos_per_prompt(tokens_per_video: int) -> None:
     assert tactile.shape == (6, tokens_per_video, 64)
 
 
+@pytest.mark.parametrize("num_items", [None, 7.0])
+def test_loss_only_gives_the_full_heads_loss_and_gradients(num_items: float | None) -> None:
+    """The training path runs the LM head on labelled positions only; loss and gradients must not change."""
+    model = tiny_model()
+    inputs = batch([prompt(1), prompt(2), prompt(1)])
+    labels = inputs["input_ids"].clone()
+    labels[:, :4] = -100  # a prompt part, as in training
+    labels[inputs["attention_mask"] == 0] = -100  # padding
+    labels[2] = -100  # a row without any label
+    extra = {} if num_items is None else {"num_items_in_batch": num_items}
+    results = []
+    for loss_only in (False, True):
+        model.zero_grad()
+        out = model(**inputs, pixel_values=videos(4), labels=labels, loss_only=loss_only, **extra)
+        out.loss.backward()
+        grads = {n: p.grad.clone() for n, p in model.named_parameters() if p.grad is not None}
+        results.append((out, grads))
+    (full, full_grads), (only, only_grads) = results
+    assert only.logits is None and full.logits is not None
+    assert torch.allclose(only.loss, full.loss, atol=1e-6)
+    assert full_grads.keys() == only_grads.keys() and full_grads
+    for name, grad in full_grads.items():
+        assert torch.allclose(only_grads[name], grad, atol=1e-6), name
+
+
 def test_tactile_embeddings_land_on_the_placeholders_in_video_order() -> None:
     model = tiny_model(question_conditioning=False)
     inputs = batch([prompt(1), prompt(2)])

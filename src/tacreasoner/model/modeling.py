@@ -264,8 +264,11 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
                 position_ids: torch.Tensor | None = None, past_key_values: Any = None,
                 inputs_embeds: torch.Tensor | None = None, use_cache: bool | None = None,
                 appearance_tokens: torch.Tensor | None = None, video_winner: torch.Tensor | None = None,
-                **kwargs: Any) -> CausalLMOutputWithPast:
-        """``appearance_tokens`` (optional, V×tokens_per_video×hidden): cached output of the frozen ViT.
+                loss_only: bool = False, **kwargs: Any) -> CausalLMOutputWithPast:
+        """``loss_only`` (with ``labels``): the LM head and its softmax run on the labelled positions only and
+        no logits are returned: the same loss and gradients for a fraction of the work where prompts and
+        padding outnumber answer tokens (training; benchmarks/results/train_speed.md).
+        ``appearance_tokens`` (optional, V×tokens_per_video×hidden): cached output of the frozen ViT.
         ``video_winner`` (optional, B or B×3): per prompt the place of the video its comparison picks, and
         optionally the index of its attribute in ``encoder.cross_video_attributes`` and whether it asks for more (1)
         or less (0) (−100: none); with
@@ -279,12 +282,34 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
                                                          sensor_ids, appearance_tokens, video_winner)
         elif pixel_values is not None:
             raise ValueError("pixel_values need input_ids to find the placeholders; got inputs_embeds instead")
-        out = self.language_model(inputs_embeds=inputs_embeds, attention_mask=attention_mask, labels=labels,
-                                  position_ids=position_ids, past_key_values=past_key_values, use_cache=use_cache,
-                                  **kwargs)
+        if loss_only and labels is not None and past_key_values is None:
+            out = self._labelled_loss(inputs_embeds, attention_mask, position_ids, labels, **kwargs)
+        else:
+            out = self.language_model(inputs_embeds=inputs_embeds, attention_mask=attention_mask, labels=labels,
+                                      position_ids=position_ids, past_key_values=past_key_values,
+                                      use_cache=use_cache, **kwargs)
         if comparison_loss is not None and out.loss is not None:
             out.loss = out.loss + self.encoder_config.cross_video_loss * comparison_loss.to(out.loss.dtype)
         return out
+
+    def _labelled_loss(self, inputs_embeds: torch.Tensor, attention_mask: torch.Tensor | None,
+                       position_ids: torch.Tensor | None, labels: torch.Tensor,
+                       num_items_in_batch: torch.Tensor | float | None = None, **kwargs: Any) -> CausalLMOutputWithPast:
+        """The causal LM loss of ``transformers`` (next-token cross-entropy, −100 ignored, summed over
+        ``num_items_in_batch`` or averaged) with the LM head applied to the labelled positions only."""
+        lm = self.language_model
+        hidden = lm.get_decoder()(inputs_embeds=inputs_embeds, attention_mask=attention_mask,
+                                  position_ids=position_ids, use_cache=False, **kwargs).last_hidden_state
+        targets = nn.functional.pad(labels, (0, 1), value=-100)[:, 1:]
+        keep = targets != -100
+        logits = lm.get_output_embeddings()(hidden[keep]).float()
+        loss = nn.functional.cross_entropy(logits, targets[keep], reduction="sum")
+        if num_items_in_batch is None:
+            loss = loss / keep.sum().clamp(min=1)
+        else:
+            loss = loss / (num_items_in_batch.to(loss.device) if torch.is_tensor(num_items_in_batch)
+                           else num_items_in_batch)
+        return CausalLMOutputWithPast(loss=loss)
 
     @torch.no_grad()
     def generate(self, input_ids: torch.Tensor, attention_mask: torch.Tensor | None = None,

@@ -116,8 +116,12 @@ def configure_stage(model: TacReasonerForCausalLM, stage: int, lora: LoraSetting
         return model
     from peft import get_peft_model
 
+    from tacreasoner.model.dropout import use_cpu_dropout
+
     new_ids = list(model.config.new_token_ids or [])
-    return get_peft_model(model, (lora or LoraSettings()).peft_config(new_ids))
+    peft_model = get_peft_model(model, (lora or LoraSettings()).peft_config(new_ids))
+    use_cpu_dropout(peft_model)  # the same dropout, half the cost on the CPU (model/dropout.py)
+    return peft_model
 
 
 def no_decay_parameter_names(model: nn.Module) -> set[str]:

@@ -28,7 +28,8 @@ __all__ = ["QuickstartPaths", "distributed_config", "evaluate_seeds", "quickstar
 
 TINY_SETTINGS: dict[str, Any] = {
     "model": {"encoder": {"use_temporal": True, "question_conditioning": True, "tokens_per_video": 5,
-                          "cross_video": 3, "clip_reader": True}},
+                          "cross_video": 3, "clip_reader": True},
+              "attn_implementation": "eager"},
     "stage1": {"steps": 1800, "batch_size": 16, "lr": 1e-3, "warmup_ratio": 0.05},
     "stage2": {"steps": 1000, "batch_size": 8, "lr": 2e-3, "projector_lr": 1e-3, "warmup_ratio": 0.05},
     "lora": {"r": 128, "alpha": 256, "dropout": 0.05},

@@ -328,7 +328,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
             ctx = accelerator.no_sync(trained) if not sync and world > 1 else nullcontext()
             with ctx, accelerator.autocast():
                 # the LM's loss is sum / num_items_in_batch; DDP then averages over processes, hence × world
-                loss = trained(**batch, num_items_in_batch=global_tokens / world).loss
+                loss = trained(**batch, num_items_in_batch=global_tokens / world, loss_only=True).loss
                 if loss_hook is not None:
                     loss = loss_hook(step, m, loss)
                 if not torch.isfinite(loss.detach()).all():

@@ -1,0 +1,151 @@
+"""Seconds per training step of the tiny default, before and after the CPU speed-ups, measured side by side.
+
+Usage (after `tacreasoner quickstart`, whose data, LLM, encoder and Stage I model it trains on):
+
+    python benchmarks/train_speed.py [--run runs/quickstart] [--steps 160]
+
+Absolute times on shared 2-core machines drift by ±25% between runs, so separate runs cannot rank changes of
+10%. Instead one Stage I and one Stage II run of the quickstart's settings switch variant at *every step*
+(round robin) and each variant's steps are averaged: every variant sees the same mix of batches and the same
+machine load. Variants:
+
+- ``before``: sdpa attention, the LM head over every position, ``nn.Dropout`` in LoRA (the settings up to
+  2026-11-24);
+- ``after``: eager attention, the LM head on labelled positions only (``loss_only``), ``CpuDropout`` (now);
+- ``after, sdpa`` / ``after, full head`` / ``after, nn.Dropout``: ``after`` with one change undone, to show
+  what each is worth. (Stage I has no LoRA, so no dropout variant.)
+
+The first 5 steps (warm-up) are not counted. Results: benchmarks/results/train_speed.{json,md}.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import header_md, md_table, publish, stamp
+
+VARIANTS = {
+    1: {"before": ("sdpa", False, False), "after": ("eager", True, True),
+        "after, sdpa": ("sdpa", True, True), "after, full head": ("eager", False, True)},
+    2: {"before": ("sdpa", False, False), "after": ("eager", True, True),
+        "after, sdpa": ("sdpa", True, True), "after, full head": ("eager", False, True),
+        "after, nn.Dropout": ("eager", True, False)},
+}
+"""Per stage: variant → (attention, loss_only, CpuDropout)."""
+WARMUP = 5
+
+
+class Switch:
+    """Puts the model into one variant between steps; the trainer calls ``on_log`` after every step."""
+
+    def __init__(self, stage: int) -> None:
+        from torch import nn
+
+        from tacreasoner.model import modeling, stages
+        from tacreasoner.model.dropout import CpuDropout
+
+        self.names = list(VARIANTS[stage])
+        self.times: dict[str, list[float]] = {n: [] for n in self.names}
+        self.step, self.started, self.model = 0, 0.0, None
+        self.loss_only = True
+        self._nn, self._cpu_dropout = nn, CpuDropout
+        configure = stages.configure_stage
+
+        def capture(model, *args, **kwargs):
+            self.model = model
+            return configure(model, *args, **kwargs)
+
+        stages.configure_stage = capture
+        forward = modeling.TacReasonerForCausalLM.forward
+        switch = self
+
+        def patched(model_self, *args, loss_only: bool = False, **kwargs):
+            return forward(model_self, *args, loss_only=loss_only and switch.loss_only, **kwargs)
+
+        modeling.TacReasonerForCausalLM.forward = patched
+
+    def set(self, name: str, stage: int) -> None:
+        attention, loss_only, cpu_dropout = VARIANTS[stage][name]
+        self.model.language_model.config._attn_implementation = attention
+        self.loss_only = loss_only
+        for module in self.model.modules():
+            drops = getattr(module, "lora_dropout", None)
+            if isinstance(drops, self._nn.ModuleDict):
+                for key, drop in drops.items():
+                    p = drop.p
+                    drops[key] = self._cpu_dropout(p) if cpu_dropout else self._nn.Dropout(p)
+
+    def on_log(self, stage: int):
+        def record(rec: dict) -> None:
+            now = time.perf_counter()
+            current = self.names[self.step % len(self.names)]
+            if self.step >= WARMUP:
+                self.times[current].append(now - self.started)
+            self.step += 1
+            self.set(self.names[self.step % len(self.names)], stage)
+            self.started = time.perf_counter()
+
+        return record
+
+
+def run_stage(run: Path, stage: int, steps: int, work: Path) -> dict[str, list[float]]:
+    from tacreasoner.train.quickstart import QuickstartPaths, quickstart_config
+    from tacreasoner.train.trainer import train_stage
+
+    paths = QuickstartPaths(run)
+    config = quickstart_config(paths, 0, output_dir=work / f"stage{stage}_run")
+    config.runtime.log_with, config.runtime.progress = "none", False
+    config.runtime.log_every, config.runtime.checkpoint_every = 1, 10**9
+    config.stage(stage).steps = steps
+    if stage == 2:
+        stage1 = paths.train(0) / "stage1"
+        target = config.stage_dir(1)
+        target.mkdir(parents=True, exist_ok=True)
+        shutil.copytree(stage1 / "model", target / "model")
+        for name in ("run.json", "train_log.jsonl"):
+            shutil.copy(stage1 / name, target / name)
+    switch = Switch(stage)  # step 1 runs the trainer's own settings ("after"): it is inside the warm-up
+    train_stage(config, stage, on_log=switch.on_log(stage))
+    return switch.times
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--run", type=Path, default=Path("runs/quickstart"), help="A finished quickstart run directory.")
+    ap.add_argument("--steps", type=int, default=160, help="Steps per stage (shared round robin by the variants).")
+    args = ap.parse_args()
+    if not (args.run / "train" / "seed0" / "stage1" / "model").is_dir():
+        sys.exit(f"{args.run}: no train/seed0/stage1/model — run `tacreasoner quickstart` first")
+    info = stamp()
+    results: dict[str, dict] = {}
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for stage in (1, 2):
+            times = run_stage(args.run, stage, args.steps, Path(tmp))
+            base = statistics.mean(times["before"])
+            results[f"stage{stage}"] = {}
+            for name, values in times.items():
+                mean = statistics.mean(values)
+                results[f"stage{stage}"][name] = {"steps": len(values), "mean_s": mean,
+                                                  "median_s": statistics.median(values), "vs_before": mean / base}
+                rows.append([f"Stage {'I' if stage == 1 else 'II'}", name, len(values), round(mean, 4),
+                             round(statistics.median(values), 4), f"{mean / base:.2f}"])
+    md = header_md("Training step time of the tiny default: CPU speed-ups side by side", info)
+    md += (f"Run: `{args.run}` (the quickstart's data, LLM, encoder and Stage I model); the quickstart's settings, "
+           f"{args.steps} steps per stage with the variant switched at every step (round robin), the first {WARMUP} "
+           "not counted. `before`: sdpa attention, LM head over every position, `nn.Dropout` in LoRA; `after`: "
+           "eager attention, LM head on the labelled positions only (`loss_only`), `CpuDropout` "
+           "(model/dropout.py); the other rows undo one of the three.\n\n")
+    md += md_table(["stage", "variant", "steps", "mean s/step", "median s/step", "× before"], rows)
+    publish("train_speed", {**info, "run": str(args.run), "steps_per_stage": args.steps, "stages": results}, md)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,52 @@
+"""CpuDropout: the Bernoulli dropout LoRA asks for, at its rate and scale, reproducible; installed in Stage II."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+from test_stages import _model
+from torch import nn
+
+from tacreasoner.model.dropout import CpuDropout, use_cpu_dropout
+from tacreasoner.model.stages import LoraSettings, configure_stage
+
+
+def test_drops_at_the_stated_rate_and_keeps_the_expectation() -> None:
+    drop = CpuDropout(0.05).train()
+    x = torch.ones(400, 1000)
+    y = drop(x)
+    dropped = (y == 0).float().mean().item()
+    assert abs(dropped - 0.05) < 0.002  # 400k draws: 4 standard errors ≈ 0.0014
+    kept = y[y != 0]
+    assert torch.allclose(kept, torch.full_like(kept, 1 / (1 - 0.05)), rtol=1e-6)
+    assert abs(y.mean().item() - 1.0) < 0.003
+
+
+def test_masks_differ_per_call_and_repeat_under_the_same_seed() -> None:
+    drop = CpuDropout(0.5).train()
+    x = torch.ones(64, 64)
+    torch.manual_seed(3)
+    first, second = drop(x), drop(x)
+    torch.manual_seed(3)
+    assert not torch.equal(first, second)
+    assert torch.equal(drop(x), first)
+
+
+def test_eval_mode_and_zero_rate_pass_the_input_through_and_gradients_follow_the_mask() -> None:
+    x = torch.randn(8, 16, requires_grad=True)
+    assert CpuDropout(0.3).eval()(x) is x
+    assert CpuDropout(0.0).train()(x) is x
+    y = CpuDropout(0.3).train()(x)
+    y.sum().backward()
+    assert torch.allclose(x.grad, (y != 0).float() / 0.7)
+    with pytest.raises(ValueError, match=r"\[0, 1\)"):
+        CpuDropout(1.0)
+
+
+def test_stage_two_gives_every_lora_layer_the_cpu_dropout_at_the_configured_rate() -> None:
+    peft_model = configure_stage(_model(), 2, LoraSettings(r=4, alpha=8, dropout=0.1))
+    drops = [d for m in peft_model.modules() if isinstance(getattr(m, "lora_dropout", None), nn.ModuleDict)
+             for d in m.lora_dropout.values()]
+    assert len(drops) == 4 * 2  # q, k, v, o in each of the tiny LLM's 2 layers
+    assert all(isinstance(d, CpuDropout) and d.p == 0.1 for d in drops)
+    assert use_cpu_dropout(peft_model) == 0  # nothing left to replace
