@@ -70,3 +70,28 @@ def test_creep_and_residual_cues() -> None:
 def test_bad_shape_is_a_clear_error() -> None:
     with pytest.raises(ValueError, match="T×H×W×3"):
         frame_signals(np.zeros((4, 10, 10), np.uint8))
+
+
+def test_chunked_signals_equal_one_whole_clip_chunk_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:
+    """frame_signals measures a few frames at a time for speed; chunk borders must not show (frame differences)."""
+    import tacreasoner.data.cues as cues
+
+    rng = np.random.default_rng(1)
+    frames = _disk_clip([0, 0, 10, 25, 40, 55, 60, 60, 58, 50, 40, 30, 20, 0, 0, 0, 0, 0, 0, 0],
+                        shift=list(np.linspace(0, 30, 20)))
+    frames = np.clip(frames + rng.integers(-3, 4, frames.shape), 0, 255).astype(np.uint8)  # sensor noise
+    chunked = frame_signals(frames)
+    monkeypatch.setattr(cues, "FRAME_CHUNK", len(frames))
+    whole = frame_signals(frames)
+    for field in ("intensity", "area", "gradient", "texture", "bumps", "tint", "diff_energy", "centroid"):
+        a, b = getattr(chunked, field), getattr(whole, field)
+        assert a.dtype == b.dtype and np.array_equal(a, b, equal_nan=True), field
+    assert chunked.diff_energy[8] > 0 and chunked.diff_energy[16] == whole.diff_energy[16]  # across chunk borders
+
+
+def test_channel_mean_is_numpys_mean_bit_for_bit() -> None:
+    from tacreasoner.data.cues import _channel_mean
+
+    x = np.random.default_rng(0).normal(0, 50, (7, 31, 17, 3)).astype(np.float32)
+    assert np.array_equal(_channel_mean(x), x.mean(axis=-1))
+    assert _channel_mean(x).dtype == np.float32

@@ -60,13 +60,42 @@ def smoothed_difference(frames: np.ndarray, background: np.ndarray | None = None
     return small, small - bg[None]
 
 
+FRAME_CHUNK = 8
+"""Frames measured together: every signal is per frame, so chunks give the whole-clip result bit for bit while
+their arrays stay in the CPU cache (2-3× faster than whole-clip arrays on a 126-frame Mini clip)."""
+
+
 def frame_signals(frames: np.ndarray, background: np.ndarray | None = None, stride: int = STRIDE) -> FrameSignals:
     """Signals of a T×H×W×3 uint8 clip. The background defaults to the first frame (no contact yet)."""
-    small, diff = smoothed_difference(frames, background, stride)
-    mag = np.abs(diff).mean(axis=-1)
+    if frames.ndim != 4 or frames.shape[-1] != 3:
+        raise ValueError(f"frames must be T×H×W×3, got shape {frames.shape}")
+    if background is None:
+        bg = smoothed_difference(frames[:1], None, stride)[0][0]
+    else:
+        bg = ndimage.uniform_filter(np.asarray(background, np.float32)[::stride, ::stride], size=(3, 3, 1))
+    parts: list[dict[str, np.ndarray]] = []
+    previous = None
+    for start in range(0, len(frames), FRAME_CHUNK):
+        small = ndimage.uniform_filter(frames[start:start + FRAME_CHUNK, ::stride, ::stride].astype(np.float32),
+                                       size=(1, 3, 3, 1))
+        parts.append(_chunk_signals(small, small - bg[None], previous, stride))
+        previous = small[-1]
+    joined = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]} if parts else _empty_signals()
+    joined["gradient"] = _above_floor(joined["gradient"])
+    return FrameSignals(**joined)
+
+
+def _channel_mean(x: np.ndarray) -> np.ndarray:
+    """``x.mean(axis=-1)`` over 3 channels with the same float32 additions, without the strided reduction."""
+    return (x[..., 0] + x[..., 1] + x[..., 2]) / np.float32(3)
+
+
+def _chunk_signals(small: np.ndarray, diff: np.ndarray, previous: np.ndarray | None, stride: int) -> dict:
+    """Per-frame signals of consecutive frames (``previous``: the smoothed frame before them, None at the start)."""
+    mag = _channel_mean(np.abs(diff))
     mag_s = ndimage.uniform_filter(mag, size=(1, 5, 5))
     mask = mag_s > CONTACT_THRESHOLD
-    grey = diff.mean(axis=-1)
+    grey = _channel_mean(diff)
     gy, gx = np.gradient(grey, axis=(1, 2))
     grad = np.sqrt(gx * gx + gy * gy)
     # Two texture bands: fine (roughness, < ~0.3 mm) and coarse (bumps, ~0.3–1 mm) at Mini's scale.
@@ -74,8 +103,9 @@ def frame_signals(frames: np.ndarray, background: np.ndarray | None = None, stri
     fine = grey - blur3
     coarse = blur3 - ndimage.uniform_filter(grey, size=(1, 11, 11))
     n_in = np.maximum(mask.sum(axis=(1, 2)), 1)
-    fd = np.zeros(len(frames), np.float32)
-    fd[1:] = np.abs(np.diff(small, axis=0)).mean(axis=(1, 2, 3))
+    fd = np.zeros(len(small), np.float32)
+    steps = np.diff(small, axis=0) if previous is None else np.diff(small, axis=0, prepend=previous[None])
+    fd[len(small) - len(steps):] = np.abs(steps).mean(axis=(1, 2, 3))
     h, w = mask.shape[1:]
     yy, xx = np.mgrid[0:h, 0:w]
     weight = mag_s * mask
@@ -83,16 +113,22 @@ def frame_signals(frames: np.ndarray, background: np.ndarray | None = None, stri
     with np.errstate(invalid="ignore", divide="ignore"):
         cx = (weight * xx).sum(axis=(1, 2)) / total * stride
         cy = (weight * yy).sum(axis=(1, 2)) / total * stride
-    return FrameSignals(
-        intensity=mag.mean(axis=(1, 2)),
-        area=mask.mean(axis=(1, 2)),
-        gradient=_above_floor(np.percentile(grad.reshape(len(grad), -1), 99, axis=1)),
-        texture=(np.abs(fine) * mask).sum(axis=(1, 2)) / n_in,
-        bumps=(np.abs(coarse) * mask).sum(axis=(1, 2)) / n_in,
-        tint=(diff * mask[..., None]).sum(axis=(1, 2)) / n_in[:, None],
-        diff_energy=fd,
-        centroid=np.stack([cx, cy], axis=1),
-    )
+    return {
+        "intensity": mag.mean(axis=(1, 2)),
+        "area": mask.mean(axis=(1, 2)),
+        "gradient": np.percentile(grad.reshape(len(grad), -1), 99, axis=1),
+        "texture": (np.abs(fine) * mask).sum(axis=(1, 2)) / n_in,
+        "bumps": (np.abs(coarse) * mask).sum(axis=(1, 2)) / n_in,
+        "tint": (diff * mask[..., None]).sum(axis=(1, 2)) / n_in[:, None],
+        "diff_energy": fd,
+        "centroid": np.stack([cx, cy], axis=1),
+    }
+
+
+def _empty_signals() -> dict[str, np.ndarray]:
+    return {"intensity": np.zeros(0, np.float32), "area": np.zeros(0), "gradient": np.zeros(0),
+            "texture": np.zeros(0), "bumps": np.zeros(0), "tint": np.zeros((0, 3)),
+            "diff_energy": np.zeros(0, np.float32), "centroid": np.zeros((0, 2))}
 
 
 def _above_floor(x: np.ndarray) -> np.ndarray:

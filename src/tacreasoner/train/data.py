@@ -240,53 +240,40 @@ class VideoBank:
         self.appearance: torch.Tensor | None = None
 
     def build(self, keys: Sequence[VideoKey], progress: Callable[[int, int], None] | None = None,
-              cache_dir: str | Path | None = None) -> None:
+              cache_dir: str | Path | None = None, workers: int | None = None) -> None:
         """Preprocess every distinct video once; ``cache_dir`` keeps the results on disk for later runs
-        (other stages, seeds, ablations and evaluation), keyed by file, size, mtime, segment and settings."""
-        # sorted by file: the segments of one clip follow each other, so the clip is decoded once
+        (other stages, seeds, ablations and evaluation), keyed by file, size, mtime, segment and settings.
+
+        Clips not on disk yet are decoded by ``workers`` processes (default: 2 where the cores allow and no
+        distributed run shares them), each clip once for all its segments: decoding is most of the work and
+        runs on one core per process.
+        """
+        # sorted by file: the segments of one clip follow each other
         unique = sorted(dict.fromkeys(keys), key=lambda k: (k[0], k[1] or 0, k[2] or 0))
-        arrays, sensors = [], []
-        for n, key in enumerate(unique, 1):
-            arrays.append(self._pixels(key, Path(cache_dir) if cache_dir is not None else None))
-            sensors.append(sensor_index(Path(key[0]).parent.name, self.sensor_types))  # clips/<sensor>/<clip>
+        cache = Path(cache_dir) if cache_dir is not None else None
+        arrays: dict[VideoKey, np.ndarray] = {}
+        todo: dict[str, list[VideoKey]] = {}
+        for key in unique:
+            hit = _load_cached(_cache_file(key, self.video_config, cache))
+            if hit is None:
+                todo.setdefault(key[0], []).append(key)
+            else:
+                arrays[key] = hit
+
+        def report() -> None:
             if progress is not None:
-                progress(n, len(unique))
+                progress(len(arrays), len(unique))
+
+        report()
+        jobs = [(path, clip_keys, self.video_config, cache) for path, clip_keys in todo.items()]
+        for clip_keys, clip_arrays in _run_clip_jobs(jobs, _video_workers(workers)):
+            arrays.update(zip(clip_keys, clip_arrays, strict=True))
+            report()
         self.index = {k: i for i, k in enumerate(unique)}
-        self.pixels = torch.from_numpy(np.stack(arrays)) if arrays else None
-        self.sensors = torch.tensor(sensors, dtype=torch.long)
-
-    def _pixels(self, key: VideoKey, cache_dir: Path | None) -> np.ndarray:
-        from tacreasoner.data.cache import load_frames
-        from tacreasoner.data.sampling import background_frame
-        from tacreasoner.model.video_processing import preprocess_video
-
-        path, start, end = key
-        cached = None
-        if cache_dir is not None:
-            stat = Path(path).stat()
-            name = json.dumps([str(Path(path).resolve()), stat.st_size, stat.st_mtime_ns, start, end,
-                               self.video_config.to_dict()], sort_keys=True)
-            cached = cache_dir / f"{hashlib.sha256(name.encode()).hexdigest()[:24]}.npy"
-            if cached.is_file():
-                try:
-                    return np.load(cached)
-                except (OSError, ValueError):
-                    pass  # a torn write: recompute below
-        try:
-            frames = load_frames(path)
-        except (OSError, ValueError) as exc:
-            raise ValueError(f"{path}: cannot decode training video ({exc})") from None
-        segment = frames[start:end] if (start is not None or end is not None) else frames
-        if len(segment) == 0:
-            raise ValueError(f"{path}: segment [{start}, {end}) holds no frames")
-        array = preprocess_video(segment, self.video_config, background=background_frame(frames))
-        if cached is not None:
-            cache_dir.mkdir(parents=True, exist_ok=True)
-            tmp = cached.with_suffix(f".{os.getpid()}.tmp")
-            with tmp.open("wb") as f:
-                np.save(f, array)
-            os.replace(tmp, cached)
-        return array
+        self.pixels = torch.from_numpy(np.stack([arrays[k] for k in unique])) if unique else None
+        # clips/<sensor>/<clip>
+        self.sensors = torch.tensor([sensor_index(Path(k[0]).parent.name, self.sensor_types) for k in unique],
+                                    dtype=torch.long)
 
     @torch.no_grad()
     def cache_appearance(self, tactile_encoder: Any, batch_size: int = 64) -> None:
@@ -328,6 +315,90 @@ def comparison_targets(examples: Sequence[Tokenized], attributes: Sequence[str])
     return torch.tensor([[e.winner, index.get(e.attribute, IGNORE_INDEX), e.more] for e in examples],
                         dtype=torch.long)
 
+
+
+def _cache_file(key: VideoKey, video_config: Any, cache_dir: Path | None) -> Path | None:
+    if cache_dir is None:
+        return None
+    path, start, end = key
+    stat = Path(path).stat()
+    name = json.dumps([str(Path(path).resolve()), stat.st_size, stat.st_mtime_ns, start, end,
+                       video_config.to_dict()], sort_keys=True)
+    return cache_dir / f"{hashlib.sha256(name.encode()).hexdigest()[:24]}.npy"
+
+
+def _load_cached(file: Path | None) -> np.ndarray | None:
+    if file is None or not file.is_file():
+        return None
+    try:
+        return np.load(file)
+    except (OSError, ValueError):
+        return None  # a torn write: recompute
+
+
+def _preprocess_clip(job: tuple[str, list[VideoKey], Any, Path | None]) -> list[np.ndarray]:
+    """Every segment of one clip, decoded once; each result written to the disk cache when there is one."""
+    from tacreasoner.data.cache import load_frames
+    from tacreasoner.data.sampling import background_frame
+    from tacreasoner.model.video_processing import preprocess_video
+
+    path, keys, video_config, cache_dir = job
+    try:
+        frames = load_frames(path)
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{path}: cannot decode training video ({exc})") from None
+    out = []
+    for key in keys:
+        _, start, end = key
+        segment = frames[start:end] if (start is not None or end is not None) else frames
+        if len(segment) == 0:
+            raise ValueError(f"{path}: segment [{start}, {end}) holds no frames")
+        array = preprocess_video(segment, video_config, background=background_frame(frames))
+        cached = _cache_file(key, video_config, cache_dir)
+        if cached is not None:
+            cached.parent.mkdir(parents=True, exist_ok=True)
+            tmp = cached.with_suffix(f".{os.getpid()}.tmp")
+            with tmp.open("wb") as f:
+                np.save(f, array)
+            os.replace(tmp, cached)
+        out.append(array)
+    return out
+
+
+def _video_workers(workers: int | None) -> int:
+    if workers is not None:
+        return max(1, int(workers))
+    if int(os.environ.get("WORLD_SIZE", "1")) > 1:
+        return 1  # each process of a distributed run builds its own bank: the cores are taken
+    from tacreasoner.train.threads import available_cores
+
+    return min(2, available_cores())
+
+
+MIN_CLIPS_PER_POOL = 8
+"""Fewer clips than this are decoded in-process: starting worker processes would cost more."""
+
+
+def _forget_decoded() -> None:
+    """Worker processes decode each clip once: keeping frames in memory would only cost RAM."""
+    from tacreasoner.data.cache import set_memory_limit
+
+    set_memory_limit(0)
+
+
+def _run_clip_jobs(jobs: list, workers: int) -> Iterable[tuple[list[VideoKey], list[np.ndarray]]]:
+    """(keys, arrays) per clip job, in order."""
+    if workers <= 1 or len(jobs) < MIN_CLIPS_PER_POOL:
+        for job in jobs:
+            yield job[1], _preprocess_clip(job)
+        return
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                             initializer=_forget_decoded) as pool:
+        for job, arrays in zip(jobs, pool.map(_preprocess_clip, jobs, chunksize=4), strict=True):
+            yield job[1], arrays
 
 # ------------------------------------------------------------------------------------------ order
 
