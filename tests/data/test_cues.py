@@ -70,6 +70,8 @@ def test_creep_and_residual_cues() -> None:
 def test_bad_shape_is_a_clear_error() -> None:
     with pytest.raises(ValueError, match="T×H×W×3"):
         frame_signals(np.zeros((4, 10, 10), np.uint8))
+    with pytest.raises(ValueError, match="no frames"):
+        frame_signals(np.zeros((0, 10, 10, 3), np.uint8), np.zeros((10, 10, 3), np.uint8))
 
 
 def test_chunked_signals_equal_one_whole_clip_chunk_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -343,13 +343,6 @@ def _measure(work: _ClipWork) -> list[VideoCues]:
     return _cue_tables(work.path, work.phases, work.fps, work.action, work.segments, work.clip_id)
 
 
-def _init_worker() -> None:
-    """Workers measure each clip once: keeping decoded frames in memory would only cost RAM."""
-    from tacreasoner.data.cache import set_memory_limit
-
-    set_memory_limit(0)
-
-
 def prepare_jobs(bench_dir: str | os.PathLike[str], split: str = "train", *, cache_dir: str | os.PathLike[str],
                  tasks: Iterable[str] | None = None, limit: int | None = None, workers: int = 1,
                  progress: Callable[[int, int], None] | None = None,
@@ -488,7 +481,11 @@ def _cue_tables_for(work: dict[str, _ClipWork], cache: CueCache, workers: int,
         for w in todo:
             finish(w, _measure(w))
     else:
-        with ProcessPoolExecutor(max_workers=min(workers, len(todo)), initializer=_init_worker) as pool:
+        from tacreasoner.data.cache import set_memory_limit
+
+        # workers measure each clip once: keeping decoded frames in memory would only cost RAM
+        with ProcessPoolExecutor(max_workers=min(workers, len(todo)), initializer=set_memory_limit,
+                                 initargs=(0,)) as pool:
             futures = {pool.submit(_measure, w): w for w in todo}
             for future in as_completed(futures):
                 finish(futures[future], future.result())

@@ -253,8 +253,9 @@ class VideoBank:
         cache = Path(cache_dir) if cache_dir is not None else None
         arrays: dict[VideoKey, np.ndarray] = {}
         todo: dict[str, list[VideoKey]] = {}
+        files = {key: _cache_file(key, self.video_config, cache) for key in unique}
         for key in unique:
-            hit = _load_cached(_cache_file(key, self.video_config, cache))
+            hit = _load_cached(files[key])
             if hit is None:
                 todo.setdefault(key[0], []).append(key)
             else:
@@ -265,7 +266,8 @@ class VideoBank:
                 progress(len(arrays), len(unique))
 
         report()
-        jobs = [(path, clip_keys, self.video_config, cache) for path, clip_keys in todo.items()]
+        jobs = [(path, clip_keys, self.video_config, [files[k] for k in clip_keys])
+                for path, clip_keys in todo.items()]
         for clip_keys, clip_arrays in _run_clip_jobs(jobs, _video_workers(workers)):
             arrays.update(zip(clip_keys, clip_arrays, strict=True))
             report()
@@ -316,7 +318,6 @@ def comparison_targets(examples: Sequence[Tokenized], attributes: Sequence[str])
                         dtype=torch.long)
 
 
-
 def _cache_file(key: VideoKey, video_config: Any, cache_dir: Path | None) -> Path | None:
     if cache_dir is None:
         return None
@@ -336,25 +337,23 @@ def _load_cached(file: Path | None) -> np.ndarray | None:
         return None  # a torn write: recompute
 
 
-def _preprocess_clip(job: tuple[str, list[VideoKey], Any, Path | None]) -> list[np.ndarray]:
-    """Every segment of one clip, decoded once; each result written to the disk cache when there is one."""
+def _preprocess_clip(job: tuple[str, list[VideoKey], Any, list[Path | None]]) -> list[np.ndarray]:
+    """Every segment of one clip, decoded once; each result written to its disk-cache file when it has one."""
     from tacreasoner.data.cache import load_frames
     from tacreasoner.data.sampling import background_frame
     from tacreasoner.model.video_processing import preprocess_video
 
-    path, keys, video_config, cache_dir = job
+    path, keys, video_config, files = job
     try:
         frames = load_frames(path)
     except (OSError, ValueError) as exc:
         raise ValueError(f"{path}: cannot decode training video ({exc})") from None
     out = []
-    for key in keys:
-        _, start, end = key
+    for (_, start, end), cached in zip(keys, files, strict=True):
         segment = frames[start:end] if (start is not None or end is not None) else frames
         if len(segment) == 0:
             raise ValueError(f"{path}: segment [{start}, {end}) holds no frames")
         array = preprocess_video(segment, video_config, background=background_frame(frames))
-        cached = _cache_file(key, video_config, cache_dir)
         if cached is not None:
             cached.parent.mkdir(parents=True, exist_ok=True)
             tmp = cached.with_suffix(f".{os.getpid()}.tmp")
@@ -379,13 +378,6 @@ MIN_CLIPS_PER_POOL = 8
 """Fewer clips than this are decoded in-process: starting worker processes would cost more."""
 
 
-def _forget_decoded() -> None:
-    """Worker processes decode each clip once: keeping frames in memory would only cost RAM."""
-    from tacreasoner.data.cache import set_memory_limit
-
-    set_memory_limit(0)
-
-
 def _run_clip_jobs(jobs: list, workers: int) -> Iterable[tuple[list[VideoKey], list[np.ndarray]]]:
     """(keys, arrays) per clip job, in order."""
     if workers <= 1 or len(jobs) < MIN_CLIPS_PER_POOL:
@@ -395,10 +387,14 @@ def _run_clip_jobs(jobs: list, workers: int) -> Iterable[tuple[list[VideoKey], l
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
+    from tacreasoner.data.cache import set_memory_limit
+
+    # workers decode each clip once: keeping its frames in their memory cache would only cost RAM
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
-                             initializer=_forget_decoded) as pool:
+                             initializer=set_memory_limit, initargs=(0,)) as pool:
         for job, arrays in zip(jobs, pool.map(_preprocess_clip, jobs, chunksize=4), strict=True):
             yield job[1], arrays
+
 
 # ------------------------------------------------------------------------------------------ order
 
