@@ -148,6 +148,19 @@ def test_resize_output_shape(mode: str, src: tuple[int, int], dst: tuple[int, in
     assert resize_keep_aspect(frames[0], *dst, mode=mode).shape == (*dst, 3)
 
 
+@pytest.mark.parametrize("interpolation", ["AREA", "BILINEAR"])
+def test_resize_equals_ffmpegs_per_frame_resampling(interpolation: str) -> None:
+    """The shared swscale context must resample each frame exactly as a fresh one does."""
+    import av
+
+    frames = np.random.default_rng(1).integers(0, 256, (4, 60, 80, 3), dtype=np.uint8)
+    out = resize_keep_aspect(frames, 24, 32, interpolation=interpolation)
+    reference = np.stack([av.VideoFrame.from_ndarray(f, format="rgb24")
+                          .reformat(width=32, height=24, interpolation=interpolation).to_ndarray(format="rgb24")
+                          for f in frames])
+    assert np.array_equal(out, reference)
+
+
 def test_fit_pads_with_the_background_colour_and_crop_keeps_the_centre() -> None:
     frame = np.zeros((240, 320, 3), np.uint8)
     frame[:] = (40, 90, 160)  # gel background

@@ -56,6 +56,17 @@ def test_accepts_frame_iterable(tmp_path: Path) -> None:
     assert read_video(out)[0].shape == frames.shape
 
 
+def test_decoded_frames_equal_pyavs_own_per_frame_conversion(tmp_path: Path) -> None:
+    """read_video converts YUV to RGB with one shared swscale context; it must give PyAV's per-frame pixels."""
+    rng = np.random.default_rng(3)
+    frames = rng.integers(0, 256, (6, 48, 64, 3), dtype=np.uint8)  # noise: every chroma rounding shows
+    out = write_video(tmp_path / "noise.mp4", frames, fps=10)
+    with av.open(str(out)) as container:
+        reference = np.stack([f.to_ndarray(format="rgb24") for f in container.decode(video=0)])
+    video, _ = read_video(out)
+    assert np.array_equal(video, reference)
+
+
 def test_max_frames(clip: Path) -> None:
     video, _ = read_video(clip, max_frames=3)
     assert video.shape[0] == 3
