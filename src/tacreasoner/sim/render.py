@@ -103,12 +103,16 @@ def _macro_height(traj: ContactTrajectory, idx: np.ndarray, style: SensorStyle, 
         r2 = across * across + along * along
     else:
         r2 = dx * dx + dy * dy
-    profile = np.maximum(1.0 - r2 / (a * a), 0.0)
+    # Frame-sized arrays are updated in place below: the same operations in the same order as the plain
+    # expressions (so the same numbers), without a fresh temporary for every step.
+    profile = np.divide(r2, a * a)
+    np.subtract(1.0, profile, out=profile)
+    np.maximum(profile, 0.0, out=profile)
     conform = traj.conform[idx]
     if np.any(conform > 0):
         # Resting in a residual dent: a flatter, wider imprint (flat-punch-like).
         q = (1.0 - 0.65 * conform).astype(dtype)[:, None, None]
-        profile = profile**q
+        np.power(profile, q, out=profile)
     depth = traj.indent_gel[idx].astype(dtype)[:, None, None]
     height = depth * profile
     shear = traj.gel_shift_mm[idx]
@@ -117,13 +121,21 @@ def _macro_height(traj: ContactTrajectory, idx: np.ndarray, style: SensorStyle, 
         # over the whole imprint proportional to the friction force (visible without markers).
         ux = shear[:, 0].astype(dtype)[:, None, None]
         uy = shear[:, 1].astype(dtype)[:, None, None]
-        height = height + SHEAR_TILT_PER_MM * (ux * dx + uy * dy) * np.sqrt(profile)
+        tilt = ux * dx + uy * dy
+        np.multiply(SHEAR_TILT_PER_MM, tilt, out=tilt)
+        height += tilt * np.sqrt(profile, out=profile)  # not tilt *= …: profile is float64 for elongated shapes
     twist = np.abs(traj.gel_twist[idx])
     if np.any(twist > 0):
         # Torsion wrinkles the gel at the contact rim: a raised ring growing with the stuck-patch twist.
-        rim = np.exp(-(((np.sqrt(r2) - a) / (0.25 * a)) ** 2))
-        height = height + TORSION_RIM_MM_PER_RAD * twist.astype(dtype)[:, None, None] * rim
-    return height.astype(dtype)
+        rim = np.sqrt(r2, out=r2)  # r2 is not needed after this
+        rim -= a
+        rim /= 0.25 * a
+        np.square(rim, out=rim)
+        np.negative(rim, out=rim)
+        np.exp(rim, out=rim)
+        rim *= TORSION_RIM_MM_PER_RAD * twist.astype(dtype)[:, None, None]
+        height += rim
+    return height.astype(dtype, copy=False)
 
 
 def _texture_coords(traj: ContactTrajectory, i: int, scene: RenderScene) -> tuple[np.ndarray, np.ndarray]:
@@ -146,13 +158,16 @@ def _texture_coords(traj: ContactTrajectory, i: int, scene: RenderScene) -> tupl
 def _contact_mask(macro: np.ndarray, traj: ContactTrajectory, idx: np.ndarray) -> np.ndarray:
     depth = np.maximum(traj.indent_gel[idx], 1e-6).astype(macro.dtype)[:, None, None]
     fill = np.minimum(traj.indent_gel[idx] / 0.05, 1.0).astype(macro.dtype)[:, None, None]
-    return np.minimum(macro / depth * 3.0, 1.0) * fill
+    mask = macro / depth
+    mask *= 3.0
+    np.minimum(mask, 1.0, out=mask)
+    mask *= fill
+    return mask
 
 
 def _height_fft(traj: ContactTrajectory, idx: np.ndarray, scene: RenderScene, kernel: np.ndarray) -> np.ndarray:
     macro = _macro_height(traj, idx, scene.style, np.float32)
     mask = _contact_mask(macro, traj, idx)
-    raw = macro
     tex = np.zeros_like(macro)
     for j, i in enumerate(idx):
         if traj.indent_gel[i] <= 0:
@@ -162,8 +177,13 @@ def _height_fft(traj: ContactTrajectory, idx: np.ndarray, scene: RenderScene, ke
         vi = np.clip(np.rint(v).astype(np.intp), 0, size - 1)
         ui = np.clip(np.rint(u).astype(np.intp), 0, size - 1)
         tex[j] = scene.texture[vi, ui]
-    raw = macro + scene.texture_gain * tex * mask
-    spread = sfft.irfft2(sfft.rfft2(raw, axes=(1, 2)) * kernel, s=raw.shape[1:], axes=(1, 2))
+    # raw = macro + gain·tex·mask, computed in place (addition commutes exactly, so the same numbers)
+    raw = np.multiply(scene.texture_gain, tex, out=tex)
+    raw *= mask
+    raw += macro
+    spectrum = sfft.rfft2(raw, axes=(1, 2))
+    spectrum *= kernel
+    spread = sfft.irfft2(spectrum, s=raw.shape[1:], axes=(1, 2))
     return _crop(spread).astype(np.float32)
 
 
@@ -205,29 +225,38 @@ def _shade(height: np.ndarray, scene: RenderScene, frame_ids: np.ndarray, traj: 
     coef = _light_coefficients(style) * style.shading_gain
     img = np.empty((*height.shape, 3), np.float32)
     depth_term = style.depth_darkening * height
+    # (z − a·gx − b·gy)·inv + (depth − z) + background, evaluated in that order into two reused buffers:
+    # the same float32 operations as the plain expression, without five fresh frame-sized temporaries.
+    channel, term = np.empty_like(height), np.empty_like(height)
     for c in range(3):
         a, b, z = coef[c]
-        channel = (z - a * gx - b * gy) * inv
-        channel += depth_term - z
+        np.subtract(z, np.multiply(a, gx, out=channel), out=channel)
+        channel -= np.multiply(b, gy, out=term)
+        channel *= inv
+        channel += np.subtract(depth_term, z, out=term)
         channel += scene.background[None, :, :, c]
         img[..., c] = channel
     if scene.markers_mm is not None:
         img = _draw_markers(img, gx, gy, traj, frame_ids, scene)
-    img += _frame_noise(scene, frame_ids)
+    _add_frame_noise(img, scene, frame_ids)
     img += 0.5
     np.clip(img, 0, 255, out=img)
     return img.astype(np.uint8)
 
 
-def _frame_noise(scene: RenderScene, frame_ids: np.ndarray) -> np.ndarray:
-    """Fresh-looking noise per frame from a small bank: a bank frame rolled by a frame-dependent offset."""
-    bank = scene.noise
-    flat = bank.reshape(len(bank), -1)
-    out = np.empty((len(frame_ids), *bank.shape[1:]), np.float32)
+def _add_frame_noise(img: np.ndarray, scene: RenderScene, frame_ids: np.ndarray) -> None:
+    """Fresh-looking noise per frame from a small bank: a bank frame rolled by a frame-dependent offset.
+
+    Added in place as the roll's two slices, so no rolled copy of the bank frame is ever made.
+    """
+    flat = scene.noise.reshape(len(scene.noise), -1)
+    size = flat.shape[1]
     for j, i in enumerate(frame_ids):
-        shift = (int(i) * 7919 + 104729) % flat.shape[1]
-        out[j] = np.roll(flat[int(i) % len(bank)], shift).reshape(bank.shape[1:])
-    return out
+        shift = (int(i) * 7919 + 104729) % size
+        source = flat[int(i) % len(flat)]
+        target = img[j].reshape(-1)
+        target[shift:] += source[:size - shift]
+        target[:shift] += source[size - shift:]
 
 
 def _marker_positions(traj: ContactTrajectory, i: int, gx: np.ndarray, gy: np.ndarray,
