@@ -184,6 +184,16 @@ if len(sys.argv) > 2:
 """
 
 
+def _stage(stages: list, name: str):
+    return next(stage for stage in stages if stage.name == name)
+
+
+def test_quickstart_pretrains_the_encoder_while_the_background_llm_finishes(tmp_path: Path) -> None:
+    """The encoder's stage comes before the wait for the LLM, and both before training."""
+    names = [stage.name for stage in cli._training_stages(tmp_path / "qs", 0, 1, 1, None)]
+    assert names.index("pretrain-encoder") < names.index("pretrain-llm") < names.index("train")
+
+
 def fake_pretraining(monkeypatch: pytest.MonkeyPatch, *extra: str) -> None:
     monkeypatch.setattr(cli, "_llm_pretraining_command",
                         lambda llm_dir, seed: [sys.executable, "-c", FAKE_PRETRAINING, str(llm_dir), *extra])
@@ -195,14 +205,14 @@ def test_quickstart_llm_stage_waits_for_the_background_pretraining_then_skips_it
     out = tmp_path / "qs"
     job = cli._start_llm_pretraining(out, 0)
     assert job is not None and job.log == out / "llm.log"
-    stage = cli._training_stages(out, 0, 1, 1, job)[0]
-    assert stage.name == "pretrain-llm"
+    stage = _stage(cli._training_stages(out, 0, 1, 1, job), "pretrain-llm")
     assert cli._llm_steps(out / "llm") in (None, (0, 20), (10, 20), (20, 20))
     assert stage.run() == ["0.1 M parameters, 20 steps, final loss 1.5, 3 s",
                            f"trained in the background at 1 thread alongside the data stages; log: {out / 'llm.log'}"]
     assert cli._llm_steps(out / "llm") == (20, 20)
     assert cli._start_llm_pretraining(out, 0) is None  # a re-run starts nothing …
-    assert cli._training_stages(out, 0, 1, 1, None)[0].run() == [f"already trained: {out / 'llm'}"]  # … and says so
+    assert _stage(cli._training_stages(out, 0, 1, 1, None), "pretrain-llm").run() == [
+        f"already trained: {out / 'llm'}"]  # … and says so
 
 
 def test_quickstart_llm_failure_names_the_log_and_quotes_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -210,7 +220,7 @@ def test_quickstart_llm_failure_names_the_log_and_quotes_it(tmp_path: Path, monk
     out = tmp_path / "qs"
     job = cli._start_llm_pretraining(out, 0)
     with pytest.raises(OSError) as info:  # cli_errors makes it one error line
-        cli._training_stages(out, 0, 1, 1, job)[0].run()
+        _stage(cli._training_stages(out, 0, 1, 1, job), "pretrain-llm").run()
     line = cli._one_line(info.value)
     assert "pretrain-llm failed (exit code 1)" in line and str(out / "llm.log") in line
     assert "RuntimeError: fake failure" in line

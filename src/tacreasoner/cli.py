@@ -376,11 +376,13 @@ def _training_stages(out: Path, seed: int, seeds: int, processes: int, llm_job: 
 
         return ask_one_test_clip(paths)
 
+    # The encoder first: the background LLM, one thread, usually outlasts the data stages, and the encoder's
+    # pre-training fills the second core meanwhile instead of waiting beside it.
     return [
-        Stage("pretrain-llm", f"tiny Qwen2 + BPE tokenizer on the commonsense corpus → {paths.llm}",
-              lambda: _pretrain_llm_stage(paths.llm, llm_job)),
         Stage("pretrain-encoder", f"appearance ViT, masked video reconstruction → {paths.encoder}",
               lambda: _pretrain_encoder_stage(out / "sim", paths.encoder, seed)),
+        Stage("pretrain-llm", f"tiny Qwen2 + BPE tokenizer on the commonsense corpus → {paths.llm}",
+              lambda: _pretrain_llm_stage(paths.llm, llm_job)),
         Stage("train", f"Stage I (alignment) + Stage II (LoRA SFT on TouchCoT), seeds {seed_list} → {out / 'train'}",
               train_all),
         Stage("evaluate", f"held-out test objects, strict answer extraction → {paths.evaluation}", evaluate_all),
