@@ -5,12 +5,18 @@ before, each frame's ``to_ndarray(format=...)``/``reformat`` set up a fresh swsc
 both ways on the same clips in one run (alternating which goes first) and checks that they give identical
 pixels: simulated GelSight-Mini clips (H.264) and PhysiCLeAR clips (MPEG-4) when ../shared is present.
 
+Each set is timed twice: on a quiet machine, and with one core kept busy by a single-threaded matmul loop in
+another process, as during the quickstart (the tiny LLM pre-trains in the background while the data stages
+decode). Setting up a swscale context is cheap on an idle machine but slow when the cores are contended, so
+the per-frame way suffers most exactly where the quickstart runs it.
+
     python benchmarks/decode_speed.py [--sim-clips 12 --physiclear-clips 12 --rounds 3]
 """
 
 from __future__ import annotations
 
 import argparse
+import subprocess
 import sys
 import tempfile
 import time
@@ -27,6 +33,8 @@ from tacreasoner.data.video import read_video
 from tacreasoner.sim.generate import generate_dataset, read_manifest
 
 RESIZE = (64, 64)
+BUSY_LOOP = ("import torch\ntorch.set_num_threads(1)\na = torch.randn(1000, 1000)\n"
+             "while True:\n    a @ a\n")
 
 
 def per_frame_decode(path: Path) -> np.ndarray:
@@ -79,6 +87,17 @@ def measure(paths: list[Path], rounds: int) -> dict:
             "resize_speedup": seconds["resize_per_frame"] / seconds["resize_shared"]}
 
 
+def measure_busy(paths: list[Path], rounds: int) -> dict:
+    """measure() while another process keeps one core busy (as the quickstart's background LLM does)."""
+    loop = subprocess.Popen([sys.executable, "-c", BUSY_LOOP])
+    try:
+        time.sleep(2.0)  # let it import torch and start multiplying
+        return measure(paths, rounds)
+    finally:
+        loop.kill()
+        loop.wait()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sim-clips", type=int, default=12)
@@ -93,7 +112,8 @@ def main() -> None:
         root = default_physiclear_dir()
         if root is not None and args.physiclear_clips > 0:
             sets["PhysiCLeAR (MPEG-4)"] = [c.path for c in list(read_physiclear(root))[:args.physiclear_clips]]
-        results = {name: measure(paths, args.rounds) for name, paths in sets.items()}
+        results = {f"{name}, {load}": fn(paths, args.rounds) for name, paths in sets.items()
+                   for load, fn in (("quiet", measure), ("one core busy", measure_busy))}
 
     info = stamp()
     rows = [[name, r["clips"], r["frames_per_round"], f"{r['ms_per_frame']['decode_per_frame']:.2f}",
@@ -103,7 +123,9 @@ def main() -> None:
             for name, r in results.items()]
     md = header_md("Video decoding and resizing: one swscale context per clip", info)
     md += (f"Single process, the same clips for both ways, {args.rounds} rounds alternating which goes first. "
-           "Per frame: PyAV's `to_ndarray(format='rgb24')`/`reformat` on each frame (a new swscale context every "
+           "Quiet: nothing else running; one core busy: a single-threaded torch matmul loop in another "
+           "process (the quickstart pre-trains the LLM in the background while it decodes). Per frame: PyAV's "
+           "`to_ndarray(format='rgb24')`/`reformat` on each frame (a new swscale context every "
            "time, as before e897228); shared: `read_video`/`resize_keep_aspect`, one `VideoReformatter` per clip. "
            f"Resize: to {RESIZE[0]} px high keeping the aspect (AREA). Identical: every decoded and resized "
            "pixel equal.\n\n")
