@@ -12,6 +12,7 @@ from trainsetup import tiny_config, training_inputs
 from tacreasoner.train.config import load_train_config
 from tacreasoner.train.quickstart import (
     QuickstartPaths,
+    ask_one_test_clip,
     distributed_config,
     evaluate_and_report,
     quickstart_config,
@@ -66,6 +67,21 @@ def test_evaluate_and_report_writes_tables_verdicts_and_publishes_the_model(trai
     assert (paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines() == lines, \
         "a finished prediction file is reused, not regenerated"
     assert again.summary_lines == report.summary_lines
+
+
+def test_ask_one_test_clip_prints_a_command_that_can_be_pasted(trained_run, monkeypatch) -> None:
+    root, _ = trained_run
+    paths = QuickstartPaths(root)
+    if not (paths.model / "config.json").is_file():
+        evaluate_and_report(paths, {0: paths.train(0) / "stage2" / "model"}, {})
+    monkeypatch.chdir(root)
+    command, think, answer = ask_one_test_clip(paths)
+    video = command.rsplit(" --video ", 1)[1]
+    assert Path(video).is_file(), video
+    assert command.startswith("$ tacreasoner ask --model model "), "paths under the working directory are relative"
+    monkeypatch.chdir(Path(video).parents[2])
+    assert ask_one_test_clip(paths)[0].endswith(f" --video {Path(*Path(video).parts[-3:])}")
+    assert think.startswith("think:") and answer.startswith("answer:") and "(gold: " in answer
 
 
 def test_results_table_says_which_tasks_beat_chance(trained_run) -> None:

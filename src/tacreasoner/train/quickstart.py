@@ -276,6 +276,14 @@ def _cores() -> int:
     return os.cpu_count() or 1
 
 
+def _as_typed(path: Path) -> str:
+    """The path as a user in this directory would type it, so the printed command can be pasted."""
+    try:
+        return str(Path(path).resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
 def ask_one_test_clip(paths: QuickstartPaths) -> list[str]:
     """Ask the published model one real-or-fake question about a held-out test clip."""
     from tacreasoner.evaluate.predict import load_trained
@@ -287,5 +295,6 @@ def ask_one_test_clip(paths: QuickstartPaths) -> list[str]:
     video = bench_video_root(paths.bench, info) / str(item.videos[0].path)
     model, processor = load_trained(paths.model)
     reply = model.answer(processor, item.question, [str(video)])
-    return [f"$ tacreasoner ask --model {paths.model} {json.dumps(item.question)} --video {video}",
+    return [f"$ tacreasoner ask --model {_as_typed(paths.model)} {json.dumps(item.question)} "
+            f"--video {_as_typed(video)}",
             f"think:  {reply.think}", f"answer: {reply.answer}   (gold: {item.answer})"]
