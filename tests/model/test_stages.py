@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import pytest
 import torch
 from tinymodel import TACTILE_ID, batch, prompt, tiny_model, videos
@@ -93,6 +95,15 @@ def test_unknown_stage_and_bad_lora_settings_are_clear_errors() -> None:
         LoraSettings.from_dict({"rank": 8})
     with pytest.raises(ValueError, match="r must be"):
         LoraSettings(r=0)
+
+
+def test_wrapping_and_loading_with_peft_shows_users_no_library_deprecation_warnings(tmp_path) -> None:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        peft_model = configure_stage(_model(), 2, LoraSettings(r=4, alpha=8))
+        peft_model.save_pretrained(tmp_path / "adapter")
+        load_adapter(_model(), tmp_path / "adapter")
+    assert not [w for w in caught if "is_gradient_checkpointing" in str(w.message)]
 
 
 def test_adapter_saves_apart_and_merging_keeps_the_outputs(tmp_path) -> None:

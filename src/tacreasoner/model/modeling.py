@@ -282,12 +282,13 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
                                                          sensor_ids, appearance_tokens, video_winner)
         elif pixel_values is not None:
             raise ValueError("pixel_values need input_ids to find the placeholders; got inputs_embeds instead")
-        if loss_only and labels is not None and past_key_values is None:
+        if past_key_values is not None:  # passed on only when given: newer transformers call it `cache` and warn
+            kwargs["past_key_values"] = past_key_values
+        if loss_only and labels is not None and kwargs.get("past_key_values", kwargs.get("cache")) is None:
             out = self._labelled_loss(inputs_embeds, attention_mask, position_ids, labels, **kwargs)
         else:
             out = self.language_model(inputs_embeds=inputs_embeds, attention_mask=attention_mask, labels=labels,
-                                      position_ids=position_ids, past_key_values=past_key_values,
-                                      use_cache=use_cache, **kwargs)
+                                      position_ids=position_ids, use_cache=use_cache, **kwargs)
         if comparison_loss is not None and out.loss is not None:
             out.loss = out.loss + self.encoder_config.cross_video_loss * comparison_loss.to(out.loss.dtype)
         return out

@@ -11,6 +11,9 @@ The appearance branch is never trained here (it is pre-trained by ``pretrain-enc
 from __future__ import annotations
 
 import os
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -119,7 +122,8 @@ def configure_stage(model: TacReasonerForCausalLM, stage: int, lora: LoraSetting
     from tacreasoner.model.dropout import use_cpu_dropout
 
     new_ids = list(model.config.new_token_ids or [])
-    peft_model = get_peft_model(model, (lora or LoraSettings()).peft_config(new_ids))
+    with _without_peft_deprecation_noise():
+        peft_model = get_peft_model(model, (lora or LoraSettings()).peft_config(new_ids))
     use_cpu_dropout(peft_model)  # the same dropout, half the cost on the CPU (model/dropout.py)
     return peft_model
 
@@ -148,7 +152,16 @@ def load_adapter(model: TacReasonerForCausalLM, adapter_dir: str | os.PathLike[s
     if not (adapter_dir / "adapter_config.json").is_file():
         raise FileNotFoundError(f"{adapter_dir}: no adapter_config.json (save one with the Stage II model's "
                                 f"save_pretrained)")
-    return PeftModel.from_pretrained(model, adapter_dir, is_trainable=trainable)
+    with _without_peft_deprecation_noise():
+        return PeftModel.from_pretrained(model, adapter_dir, is_trainable=trainable)
+
+
+@contextmanager
+def _without_peft_deprecation_noise() -> Iterator[None]:
+    """PEFT reads transformers' deprecated ``is_gradient_checkpointing``: a warning users can do nothing about."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="`is_gradient_checkpointing` is deprecated", category=FutureWarning)
+        yield
 
 
 def merge_adapter(model: TacReasonerForCausalLM, adapter_dir: str | os.PathLike[str]) -> TacReasonerForCausalLM:
