@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+import warnings
 
 import pytest
 import torch
@@ -435,6 +436,22 @@ def test_generate_returns_only_new_tokens_and_uses_the_tactile_prompt() -> None:
     assert int(out[0, 0]) == int(first)
     with pytest.raises(ValueError, match="placeholder"):
         model.generate(**inputs, pixel_values=videos(2), max_new_tokens=2)
+
+
+def test_forward_warns_of_nothing_and_its_cache_continues_the_sequence() -> None:
+    model = tiny_model().eval()
+    inputs = batch([prompt(1)])
+    with torch.no_grad(), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = model(**inputs, pixel_values=videos(1), use_cache=True)
+        assert not [str(w.message) for w in caught if issubclass(w.category, (FutureWarning, DeprecationWarning))]
+        following = out.logits[:, -1:].argmax(-1)
+        mask = torch.cat([inputs["attention_mask"], torch.ones_like(following)], dim=1)
+        step = model(input_ids=following, attention_mask=mask, past_key_values=out.past_key_values)
+        embeds = model.embed_inputs(inputs["input_ids"], videos(1), inputs["attention_mask"])
+        embeds = torch.cat([embeds, model.get_input_embeddings()(following)], dim=1)
+        whole = model(inputs_embeds=embeds, attention_mask=mask)
+    assert torch.allclose(step.logits[0, -1], whole.logits[0, -1], atol=1e-5)
 
 
 def test_wraps_a_causal_lm_saved_to_disk_without_changing_its_text_path(tmp_path) -> None:
