@@ -6,6 +6,7 @@ import math
 import subprocess
 import sys
 import warnings
+from pathlib import Path
 
 import pytest
 import torch
@@ -516,3 +517,15 @@ def test_set_clip_reader_adds_or_removes_it_and_the_saved_config_follows(tmp_pat
     assert TacReasonerForCausalLM.from_pretrained(tmp_path).projector.clip_reader is not None
     model.set_clip_reader(False)
     assert model.projector.clip_reader is None and not model.encoder_config.clip_reader
+
+
+def test_a_transformers_without_subconfigspec_is_a_clear_error_and_pyproject_asks_for_one_with_it() -> None:
+    from tacreasoner.model.configuration import MIN_TRANSFORMERS
+
+    code = ("import transformers.configuration_utils as c; del c.SubConfigSpec; "
+            "import tacreasoner.model.configuration")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode != 0
+    assert f"tacreasoner needs transformers>={MIN_TRANSFORMERS}" in done.stderr.splitlines()[-1]
+    pyproject = (Path(__file__).resolve().parents[2] / "pyproject.toml").read_text()
+    assert pyproject.count(f'"transformers>={MIN_TRANSFORMERS}"') == 2 and '"transformers>=5.0"' not in pyproject

@@ -4,11 +4,20 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
+import transformers
 from transformers import AutoConfig, PreTrainedConfig
-from transformers.configuration_utils import SubConfigSpec
 
 from tacreasoner._hf_registration import register_loaded
 from tacreasoner.model.encoder_config import TactileEncoderConfig
+
+MIN_TRANSFORMERS = "5.20"
+"""The first transformers with ``SubConfigSpec`` (pyproject.toml's lower bound says the same)."""
+
+try:
+    from transformers.configuration_utils import SubConfigSpec
+except ImportError as error:  # an older transformers: say what to install, not where deep inside it failed
+    raise ImportError(f"tacreasoner needs transformers>={MIN_TRANSFORMERS} (SubConfigSpec); this environment has "
+                      f"{transformers.__version__}: pip install 'transformers>={MIN_TRANSFORMERS}'") from error
 
 __all__ = ["TacReasonerConfig"]
 
