@@ -88,6 +88,18 @@ def test_stage_two_trains_projector_lora_and_new_token_rows_only() -> None:
     assert not any("tactile_encoder" in n for n in got)
 
 
+def test_the_new_row_mask_follows_the_gradient_to_its_device() -> None:
+    """Accelerate moves the model to the GPU after configure_stage: the mask made on the CPU must follow."""
+    model = configure_stage(_model(), 1)
+    weight = model.get_input_embeddings().weight
+    hooks = list(weight._backward_hooks.values())
+    assert len(hooks) == 1
+    grad = torch.ones_like(weight, device="meta")
+    assert hooks[0](grad).device.type == "meta"
+    kept = hooks[0](torch.ones_like(weight))
+    assert kept.abs().sum(1).nonzero().flatten().tolist() == NEW_IDS
+
+
 def test_unknown_stage_and_bad_lora_settings_are_clear_errors() -> None:
     with pytest.raises(ValueError, match="stage must be one of"):
         configure_stage(_model(), 3)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import pytest
@@ -94,6 +95,20 @@ def test_gradient_accumulation_matches_a_larger_batch(inputs, tmp_path) -> None:
     train_stage(big, 2)
     train_stage(acc, 2)
     a, b = _adapter_weights(tmp_path / "big"), _adapter_weights(tmp_path / "acc")
+    for name in a:
+        torch.testing.assert_close(a[name], b[name], rtol=1e-4, atol=1e-5, msg=name)
+
+
+def test_activation_checkpointing_trains_to_the_same_weights_without_deprecation_warnings(inputs, tmp_path) -> None:
+    common = {"stage1": {"skip": True}, "stage2": {"steps": 2}}
+    plain = tiny_config(inputs, tmp_path / "plain", **common)
+    checkpointed = tiny_config(inputs, tmp_path / "ckpt", model={"gradient_checkpointing": True}, **common)
+    train_stage(plain, 2)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        train_stage(checkpointed, 2)
+    assert not [str(w.message) for w in caught if "checkpointing" in str(w.message) and "deprecated" in str(w.message)]
+    a, b = _adapter_weights(tmp_path / "plain"), _adapter_weights(tmp_path / "ckpt")
     for name in a:
         torch.testing.assert_close(a[name], b[name], rtol=1e-4, atol=1e-5, msg=name)
 

@@ -98,7 +98,9 @@ def _train_new_rows(model: TacReasonerForCausalLM) -> None:
         mask = torch.zeros(weight.shape[0], 1, dtype=weight.dtype, device=weight.device)
         mask[ids] = 1
         weight.requires_grad_(True)
-        model._new_row_hooks.append(weight.register_hook(lambda grad, mask=mask: grad * mask.to(grad.dtype)))
+        # the mask follows the gradient: accelerate moves the model to the GPU after this runs
+        model._new_row_hooks.append(weight.register_hook(
+            lambda grad, mask=mask: grad * mask.to(device=grad.device, dtype=grad.dtype)))
 
 
 def configure_stage(model: TacReasonerForCausalLM, stage: int, lora: LoraSettings | None = None) -> nn.Module:

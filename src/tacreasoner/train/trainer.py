@@ -228,7 +228,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
     seed_everything(config.seed)
     model, processor = _build(config, stage)
     if config.model.gradient_checkpointing:
-        model.language_model.gradient_checkpointing_enable(gradient_checkpointing_kwargs={"use_reentrant": False})
+        enable_activation_checkpointing(model.language_model)
     trained = configure_stage(model, stage, config.lora)
     base = model  # the TacReasonerForCausalLM inside (PEFT wraps it in Stage II)
 
@@ -427,3 +427,12 @@ def _flat(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
         else:
             out[f"{prefix}{k}"] = v
     return out
+
+
+def enable_activation_checkpointing(language_model: torch.nn.Module) -> None:
+    """Non-reentrant checkpointing under transformers' new name where it has one (5.24 deprecates the old)."""
+    enable = getattr(language_model, "activation_checkpointing_enable", None)
+    if enable is not None:
+        enable(activation_checkpointing_kwargs={"use_reentrant": False})
+    else:
+        language_model.gradient_checkpointing_enable(gradient_checkpointing_kwargs={"use_reentrant": False})
