@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
+import os
+import socket
+import subprocess
+import sys
 import warnings
+from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 import torch
@@ -190,3 +196,62 @@ def test_the_clip_reader_trains_in_stage_two_only() -> None:
     names = trainable_parameter_names(trained)
     assert any("clip_reader.readings" in n for n in names)
     assert not any("readout" in n for n in names)  # the read-out is a fitted buffer
+
+
+def _fsdp_accelerator() -> SimpleNamespace:
+    return SimpleNamespace(state=SimpleNamespace(fsdp_plugin=SimpleNamespace(fsdp_version=2)))
+
+
+def test_fsdp_is_refused_before_work_where_it_would_drop_the_row_mask_or_shard_a_shared_delta() -> None:
+    from tacreasoner.train.trainer import refuse_what_fsdp_would_break
+
+    no_fsdp = SimpleNamespace(state=SimpleNamespace())
+    refuse_what_fsdp_would_break(no_fsdp, configure_stage(_model(), 1), 1)
+    with pytest.raises(ValueError, match="gradient mask that FSDP"):
+        refuse_what_fsdp_would_break(_fsdp_accelerator(), configure_stage(_model(), 1), 1)
+    tied = configure_stage(_model(), 2, LoraSettings(r=4, alpha=8))
+    refuse_what_fsdp_would_break(no_fsdp, tied, 2)
+    with pytest.raises(ValueError, match="ties its input and output embeddings"):
+        refuse_what_fsdp_would_break(_fsdp_accelerator(), tied, 2)
+    untied = tiny_model(text={"tie_word_embeddings": False})
+    untied.config.new_token_ids = NEW_IDS
+    refuse_what_fsdp_would_break(_fsdp_accelerator(), configure_stage(untied, 2, LoraSettings(r=4, alpha=8)), 2)
+
+
+FSDP2_PREPARE = """
+import os, sys, types
+import torch.distributed as dist
+dist.init_process_group("gloo", rank=0, world_size=1)
+from accelerate.utils import FullyShardedDataParallelPlugin
+from accelerate.utils.fsdp_utils import fsdp2_prepare_model
+from torch.distributed.fsdp import FSDPModule
+from tinymodel import tiny_model
+from tacreasoner.model.stages import LoraSettings, configure_stage
+model = tiny_model(text={"tie_word_embeddings": sys.argv[1] == "tied"})
+model.config.new_token_ids = [296, 297]
+trained = configure_stage(model, 2, LoraSettings(r=4, alpha=8))
+plugin = FullyShardedDataParallelPlugin(fsdp_version=2, auto_wrap_policy="transformer_based_wrap",
+                                        transformer_cls_names_to_wrap=["Qwen2DecoderLayer"])
+acc = types.SimpleNamespace(state=types.SimpleNamespace(fsdp_plugin=plugin), torch_device_mesh=None, device="cpu",
+                            is_main_process=True, mixed_precision="no")
+print("sharded" if isinstance(fsdp2_prepare_model(acc, trained), FSDPModule) else "not sharded")
+"""
+
+
+@pytest.mark.parametrize("embeddings", ["untied", "tied"])
+def test_accelerate_fsdp2_prepares_the_untied_stage_two_model_and_fails_on_the_tied_one(embeddings, tmp_path) -> None:
+    """The upstream failure the refusal above stands for: if accelerate fixes it, this fails and the refusal can go."""
+    env = {**os.environ, "MASTER_ADDR": "127.0.0.1", "MASTER_PORT": str(_free_port()),
+           "PYTHONPATH": os.pathsep.join([str(Path(__file__).parent), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-c", FSDP2_PREPARE, embeddings], capture_output=True, text=True,
+                          env=env, cwd=tmp_path, timeout=300)
+    if embeddings == "untied":
+        assert done.returncode == 0 and done.stdout.strip().splitlines()[-1] == "sharded", done.stderr[-2000:]
+    else:
+        assert done.returncode != 0 and "Invariant encountered" in done.stderr, done.stdout + done.stderr[-2000:]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]

@@ -230,6 +230,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
     if config.model.gradient_checkpointing:
         enable_activation_checkpointing(model.language_model)
     trained = configure_stage(model, stage, config.lora)
+    refuse_what_fsdp_would_break(accelerator, trained, stage)
     base = model  # the TacReasonerForCausalLM inside (PEFT wraps it in Stage II)
 
     examples = load_examples(stage, config.data.bench, touchcot=config.data.touchcot,
@@ -383,6 +384,33 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
         write_json(out / RUN_FILE, run_info)
     accelerator.wait_for_everyone()
     return StageResult(stage, model_dir, settings.steps, last_loss, train_seconds, len(tokenized), start)
+
+
+def refuse_what_fsdp_would_break(accelerator: Any, trained: torch.nn.Module, stage: int) -> None:
+    """Stop before any work where FSDP2 would train the wrong thing or fail deep inside accelerate.
+
+    Both were found on an H100 and reproduced on the CPU (docs/training.md, "Configs"):
+    Stage I's new-token rows learn through a gradient hook that FSDP's re-created (sharded) parameters do not
+    carry, so every row would train; in Stage II with tied embeddings PEFT shares one trainable-token delta
+    between input and output embeddings, which accelerate 1.15 (seeing no tie through PEFT's wrappers) shards
+    twice ("Invariant encountered: value was None").
+    """
+    plugin = getattr(accelerator.state, "fsdp_plugin", None)
+    if plugin is None:
+        return
+    if any(getattr(module, "_new_row_hooks", None) for module in trained.modules()):
+        raise ValueError(f"Stage {stage} trains the new token rows through a gradient mask that FSDP's sharded "
+                         f"parameters do not keep: run Stage I with DDP (configs/accelerate/ddp-2gpu.yaml) or "
+                         f"DeepSpeed; its LLM is frozen, so it needs no sharding")
+    inputs, outputs = trained.get_input_embeddings(), trained.get_output_embeddings()
+    if inputs is None or outputs is None or getattr(inputs, "weight", None) is getattr(outputs, "weight", None):
+        return
+    shared = {id(p) for p in inputs.parameters()} & {id(p) for p in outputs.parameters()}
+    if shared:
+        raise ValueError("this LLM ties its input and output embeddings, and PEFT's trainable new-token rows "
+                         "share one delta between them, which accelerate's FSDP2 shards twice: train Stage II "
+                         "of a tied-embedding LLM (the tiny LLM; Qwen2.5 up to 3B) with DDP "
+                         "(configs/accelerate/ddp-2gpu.yaml) or DeepSpeed ZeRO-2; Qwen2.5-7B and 14B are untied")
 
 
 def _configure_deepspeed(accelerator: Any, settings: Any) -> None:
