@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import socket
 import subprocess
 import sys
 import warnings
@@ -239,9 +238,10 @@ print("sharded" if isinstance(fsdp2_prepare_model(acc, trained), FSDPModule) els
 
 
 @pytest.mark.parametrize("embeddings", ["untied", "tied"])
-def test_accelerate_fsdp2_prepares_the_untied_stage_two_model_and_fails_on_the_tied_one(embeddings, tmp_path) -> None:
+def test_accelerate_fsdp2_prepares_the_untied_stage_two_model_and_fails_on_the_tied_one(embeddings, tmp_path,
+                                                                                      free_port) -> None:
     """The upstream failure the refusal above stands for: if accelerate fixes it, this fails and the refusal can go."""
-    env = {**os.environ, "MASTER_ADDR": "127.0.0.1", "MASTER_PORT": str(_free_port()),
+    env = {**os.environ, "MASTER_ADDR": "127.0.0.1", "MASTER_PORT": str(free_port()),
            "PYTHONPATH": os.pathsep.join([str(Path(__file__).parent), os.environ.get("PYTHONPATH", "")])}
     done = subprocess.run([sys.executable, "-c", FSDP2_PREPARE, embeddings], capture_output=True, text=True,
                           env=env, cwd=tmp_path, timeout=300)
@@ -249,9 +249,3 @@ def test_accelerate_fsdp2_prepares_the_untied_stage_two_model_and_fails_on_the_t
         assert done.returncode == 0 and done.stdout.strip().splitlines()[-1] == "sharded", done.stderr[-2000:]
     else:
         assert done.returncode != 0 and "Invariant encountered" in done.stderr, done.stdout + done.stderr[-2000:]
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]

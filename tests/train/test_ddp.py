@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import os
-import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -36,16 +35,10 @@ def _config(inputs: dict[str, Path], out: Path, batch_size: int):
                        runtime={"threads": 1, "log_with": "none", "progress": False, "mixed_precision": "no"})
 
 
-def _free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def _launch_two_processes(config_json: Path, weights_dir: Path, stage: int = 2) -> None:
+def _launch_two_processes(config_json: Path, weights_dir: Path, port: int, stage: int = 2) -> None:
     env = {**os.environ, "OMP_NUM_THREADS": "1", "TOKENIZERS_PARALLELISM": "false"}
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "--master_addr", "127.0.0.1",
-           "--master_port", str(_free_port()), str(WORKER), str(config_json), str(weights_dir), str(stage)]
+           "--master_port", str(port), str(WORKER), str(config_json), str(weights_dir), str(stage)]
     try:
         done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
     except subprocess.TimeoutExpired as exc:
@@ -58,12 +51,13 @@ def _losses(run: Path) -> list[float]:
     return [json.loads(line)["loss"] for line in (run / "stage2" / "train_log.jsonl").read_text().splitlines()]
 
 
-def test_two_processes_stay_in_sync_and_match_one_process_with_the_same_global_batch(inputs, tmp_path) -> None:
+def test_two_processes_stay_in_sync_and_match_one_process_with_the_same_global_batch(inputs, tmp_path,
+                                                                                    free_port) -> None:
     ddp_run, single_run = tmp_path / "ddp", tmp_path / "single"
     ddp_run.mkdir()
     config_json = ddp_run / "config.json"
     config_json.write_text(json.dumps(_config(inputs, ddp_run, batch_size=2).to_dict()))
-    _launch_two_processes(config_json, tmp_path / "weights")
+    _launch_two_processes(config_json, tmp_path / "weights", free_port())
 
     run_info = json.loads((ddp_run / "stage2" / "run.json").read_text())
     assert run_info["processes"] == 2 and run_info["global_batch"] == 4, (
@@ -93,7 +87,7 @@ def test_two_processes_stay_in_sync_and_match_one_process_with_the_same_global_b
     assert infos[0]["final_loss"] == pytest.approx(result.final_loss, abs=1e-5)
 
 
-def test_the_defaults_prompt_dependent_parts_train_under_ddp_in_both_stages(inputs, tmp_path) -> None:
+def test_the_defaults_prompt_dependent_parts_train_under_ddp_in_both_stages(inputs, tmp_path, free_port) -> None:
     """The tiny default's cross-video layer (its name matcher and assignment vectors speak only in OSC prompts
     once fitted) and clip reader (one-video prompts only) leave parameters without a gradient in some batches,
     which plain DDP refuses ("Expected to have finished reduction in the prior iteration")."""
@@ -107,7 +101,7 @@ def test_the_defaults_prompt_dependent_parts_train_under_ddp_in_both_stages(inpu
     config_json = tmp_path / "run" / "config.json"
     config_json.write_text(json.dumps(config.to_dict()))
     for stage in (1, 2):  # one launch per stage, as `accelerate launch tacreasoner train --stage N` runs them
-        _launch_two_processes(config_json, tmp_path / f"weights{stage}", stage)
+        _launch_two_processes(config_json, tmp_path / f"weights{stage}", free_port(), stage)
 
     for stage in (1, 2):
         info = json.loads((tmp_path / "run" / f"stage{stage}" / "run.json").read_text())
