@@ -830,21 +830,29 @@ def evaluate_cmd(
     batch_size: Annotated[int, typer.Option("--batch-size", help="Prompts per generate call.")] = 32,
     max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply.")] = 256,
     limit: Annotated[int | None, typer.Option("--limit", help="Only the first N items (trial runs).")] = None,
+    touch: Annotated[str, typer.Option("--touch", help="Removed-touch control: real (the item's videos), blank "
+                                                       "(featureless clips) or shuffled (other items' videos). "
+                                                       "Not real: predictions/<split>_<touch>.jsonl and the "
+                                                       "report in touch_<touch>/.")] = "real",
+    touch_seed: Annotated[int, typer.Option("--touch-seed", help="Seed of the shuffled videos.")] = 0,
 ) -> None:
     """Answer a benchmark split with a trained model and score it (Wilson CIs; resumable predictions)."""
     _needs_train_extra("evaluate")
     _at_least_one("--batch-size", batch_size)
+    from tacreasoner.evaluate.predict import check_touch
     from tacreasoner.evaluate.report import evaluate
 
-    items, preds = _predict_split(model, bench, split, out, batch_size, max_new_tokens, limit)
-    report = evaluate(items, [preds], mode, out)
+    check_touch(touch)  # before the model loads: a typo fails at once
+    items, preds = _predict_split(model, bench, split, out, batch_size, max_new_tokens, limit, touch, touch_seed)
+    report_dir = out if touch == "real" else out / f"touch_{touch}"
+    report = evaluate(items, [preds], mode, report_dir)
     console.print(report.to_markdown())
-    console.print(f"report: {out / 'report.md'}; predictions: {preds}")
+    console.print(f"report: {report_dir / 'report.md'}; predictions: {preds}")
 
 
 def _predict_split(model_dir: Path, bench: Path, split: str, out: Path, batch_size: int, max_new_tokens: int,
-                   limit: int | None) -> tuple[list, Path]:
-    from tacreasoner.evaluate.predict import load_trained, predict_items
+                   limit: int | None, touch: str = "real", touch_seed: int = 0) -> tuple[list, Path]:
+    from tacreasoner.evaluate.predict import load_trained, predict_items, predictions_path
     from tacreasoner.tasks.bench import load_bench
     from tacreasoner.train.data import bench_video_root
 
@@ -853,10 +861,11 @@ def _predict_split(model_dir: Path, bench: Path, split: str, out: Path, batch_si
     if not items:
         raise ValueError(f"{bench}: split {split!r} has no items")
     model, processor = load_trained(model_dir)
-    path = out / "predictions" / f"{split}.jsonl"
-    with ClipProgress(f"answering {split}", "items") as bar:
+    path = predictions_path(out, split, touch)
+    label = split if touch == "real" else f"{split} ({touch} touch)"
+    with ClipProgress(f"answering {label}", "items") as bar:
         predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
-                      max_new_tokens=max_new_tokens, progress=bar)
+                      max_new_tokens=max_new_tokens, progress=bar, touch=touch, touch_seed=touch_seed)
     return items, path
 
 

@@ -4,21 +4,33 @@ The output is the prediction JSONL that ``tacreasoner score`` and :func:`tacreas
 read (``{"id", "prediction"}`` per line). Videos are preprocessed exactly as in training
 (:class:`tacreasoner.train.data.VideoBank`: uniform frames, segment background from the whole clip).
 An interrupted run appends to the same file and skips the items already answered.
+
+``touch`` is the removed-touch control (Touch-R1's check that answers use touch): the same items answered with
+their real videos, with a blank clip in place of every video, or with the videos of other items of the split.
+A model whose accuracy holds without its own touch answers from the text alone.
 """
 
 from __future__ import annotations
 
 import json
 import os
-from collections.abc import Callable, Sequence
+import random
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
 from tacreasoner.tasks.schema import QAItem
 
-__all__ = ["load_trained", "predict_items"]
+__all__ = ["TOUCH_MODES", "blank_video", "check_touch", "load_trained", "predict_items", "predictions_path",
+           "shuffle_videos"]
+
+TOUCH_MODES = ("real", "blank", "shuffled")
+"""What the model gets as touch: the item's own videos, a featureless clip, or other items' videos."""
+
+VideoKey = tuple[str, int | None, int | None]
 
 
 def load_trained(model_dir: str | os.PathLike[str], adapter: str | os.PathLike[str] | None = None,
@@ -34,40 +46,161 @@ def load_trained(model_dir: str | os.PathLike[str], adapter: str | os.PathLike[s
     return model.to(device).eval(), processor
 
 
-def _done_ids(path: Path) -> set[str]:
+def check_touch(touch: str) -> str:
+    """``touch`` if it is a known mode; a ValueError naming the allowed ones otherwise."""
+    if touch not in TOUCH_MODES:
+        raise ValueError(f"touch must be one of {', '.join(TOUCH_MODES)}; got {touch!r}")
+    return touch
+
+
+def predictions_path(out_dir: str | os.PathLike[str], split: str, touch: str = "real") -> Path:
+    """``<out>/predictions/<split>.jsonl`` (real touch) or ``<split>_<touch>.jsonl``: one directory holds all modes."""
+    check_touch(touch)
+    name = split if touch == "real" else f"{split}_{touch}"
+    return Path(out_dir) / "predictions" / f"{name}.jsonl"
+
+
+def _done_ids(path: Path, touch: str = "real", touch_seed: int | None = None) -> set[str]:
+    """Ids already answered; raises when the file was written with another touch mode (or shuffle seed), since
+    resuming would mix two controls in one file. Lines without ``touch`` predate it and were real touch."""
     if not path.is_file():
         return set()
     done = set()
     with path.open(encoding="utf-8") as f:
-        for line in f:
+        for number, line in enumerate(f, 1):
             try:
-                done.add(json.loads(line)["id"])
-            except (json.JSONDecodeError, KeyError):
+                record = json.loads(line)
+                item_id = record["id"]
+            except (json.JSONDecodeError, KeyError, TypeError):
                 continue  # a line cut by a crash: the item is answered again
+            mode, seed = record.get("touch", "real"), record.get("touch_seed")
+            if mode != touch or (touch == "shuffled" and seed != touch_seed):
+                found = mode + (f" (touch_seed {seed})" if mode == "shuffled" else "")
+                wanted = touch + (f" (touch_seed {touch_seed})" if touch == "shuffled" else "")
+                raise ValueError(f"{path}:{number}: predictions made with touch={found}, this run asks for "
+                                 f"touch={wanted}; write them to another file rather than mix the two")
+            done.add(item_id)
     return done
+
+
+def shuffle_videos(keys: Mapping[str, Sequence[VideoKey]], seed: int = 0,
+                   objects: Mapping[str, Sequence[str]] | None = None) -> dict[str, list[VideoKey]]:
+    """Each item's videos replaced by other items' videos: a seeded permutation of all video slots of the split,
+    so every item keeps its number of videos and every video is used as often as before.
+
+    Where possible no item gets back one of its own clips (conflict 2: items often share clips, so a plain
+    derangement of slots would hand many their real touch back) nor another clip of one of its objects
+    (conflict 1; an item's objects come from ``objects``, a clip's object from items that list one per video).
+    A random permutation is repaired by swaps that lower the total conflict until none does, so the result
+    depends only on ``keys``, ``objects`` and ``seed``; where conflicts cannot all be avoided (one item, or
+    every clip of one object) the rest stay."""
+    ids = list(keys)
+    objects = objects or {}
+    slot_item = np.array([n for n, item_id in enumerate(ids) for _ in keys[item_id]], dtype=np.int64)
+    videos = [v for item_id in ids for v in keys[item_id]]
+    clips = {path: n for n, path in enumerate(dict.fromkeys(v[0] for v in videos))}
+    clip_object: dict[str, str] = {}
+    for item_id in ids:
+        if len(objects.get(item_id, ())) == len(keys[item_id]):  # one object per video: each clip's is known
+            clip_object.update({v[0]: name for v, name in zip(keys[item_id], objects[item_id], strict=True)})
+    names = {name: n for n, name in enumerate(dict.fromkeys([*clip_object.values(),
+                                                             *(o for i in ids for o in objects.get(i, ()))]))}
+    video_clip = np.array([clips[v[0]] for v in videos], dtype=np.int64)
+    video_object = np.array([names.get(clip_object.get(v[0], ""), -1) for v in videos], dtype=np.int64)
+    own_clips = [np.array(sorted({clips[v[0]] for v in keys[i]}), dtype=np.int64) for i in ids]
+    own_objects = [np.array(sorted({names[o] for o in objects.get(i, ())}), dtype=np.int64) for i in ids]
+    holders_clip = _holders(own_clips, len(clips))
+    holders_object = _holders(own_objects, len(names))
+
+    def given(item: int, clip: np.ndarray, obj: np.ndarray) -> np.ndarray:
+        """Conflict of handing ``item`` the videos of clips ``clip`` (objects ``obj``)."""
+        same = np.isin(clip, own_clips[item])
+        return np.where(same, 2, np.isin(obj, own_objects[item]) & (obj >= 0))
+
+    def received(slot_items: np.ndarray, clip: int, obj: int) -> np.ndarray:
+        """Conflict of handing each of ``slot_items`` the video of ``clip`` (object ``obj``)."""
+        same = np.isin(slot_items, holders_clip[clip])
+        return np.where(same, 2, np.isin(slot_items, holders_object[obj]) if obj >= 0 else 0)
+
+    rng = random.Random(seed)
+    source = list(range(len(videos)))  # slot i gets videos[source[i]]
+    rng.shuffle(source)
+    src = np.array(source, dtype=np.int64)
+    current = np.array([given(int(slot_item[i]), video_clip[src[i:i + 1]], video_object[src[i:i + 1]])[0]
+                        for i in range(len(src))], dtype=np.int64)
+    improved = True
+    while improved:  # every swap lowers the total conflict: this ends
+        improved = False
+        for i in np.flatnonzero(current):
+            if current[i] == 0:  # a swap since the scan began fixed it
+                continue
+            take = given(int(slot_item[i]), video_clip[src], video_object[src])  # slot i gets slot j's video
+            give = received(slot_item, int(video_clip[src[i]]), int(video_object[src[i]]))  # j gets i's
+            delta = take + give - current[i] - current
+            if delta.min() >= 0:
+                continue
+            best = np.flatnonzero(delta == delta.min())
+            j = int(best[rng.randrange(len(best))])
+            src[i], src[j] = src[j], src[i]
+            current[i], current[j] = take[j], give[j]
+            improved = True
+    out: dict[str, list[VideoKey]] = {item_id: [] for item_id in ids}
+    for item, k in zip(slot_item, src, strict=True):
+        out[ids[item]].append(videos[k])
+    return out
+
+
+def _holders(owned: Sequence[np.ndarray], size: int) -> list[np.ndarray]:
+    """For each clip (or object) index, the items that own it."""
+    holders: list[list[int]] = [[] for _ in range(size)]
+    for item, values in enumerate(owned):
+        for v in values.tolist():
+            holders[v].append(item)
+    return [np.array(h, dtype=np.int64) for h in holders]
+
+
+def blank_video(video_config: Any) -> torch.Tensor:
+    """The preprocessed form of a clip whose frames never change (the gel at rest): T×3×H×W, zeros with the
+    default normalisation. Made by the same preprocessing as real clips so it stays what a featureless clip gives."""
+    from tacreasoner.model.video_processing import preprocess_video
+
+    height, width = video_config.image_size
+    frames = np.zeros((video_config.num_frames, height, width, 3), dtype=np.uint8)
+    return torch.from_numpy(preprocess_video(frames, video_config))
 
 
 @torch.no_grad()
 def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_root: str | os.PathLike[str],
                   out_path: str | os.PathLike[str], *, batch_size: int = 32, max_new_tokens: int = 256,
                   progress: Callable[[int, int], None] | None = None,
-                  video_cache: str | os.PathLike[str] | None = None) -> Path:
+                  video_cache: str | os.PathLike[str] | None = None, touch: str = "real",
+                  touch_seed: int = 0) -> Path:
     """Greedy answers for ``items`` appended to ``out_path`` (items already there are skipped).
 
-    ``video_cache``: the training run's preprocessed-video directory, reused when given."""
+    ``video_cache``: the training run's preprocessed-video directory, reused when given.
+    ``touch``: ``real`` (the item's videos), ``blank`` (every video a featureless clip, sensor ids kept) or
+    ``shuffled`` (the videos of other items of ``items``, see :func:`shuffle_videos`, drawn from ``touch_seed``);
+    each line records it, and a file written with another mode is refused rather than resumed."""
     from tacreasoner.train.data import VideoBank, video_key
 
+    check_touch(touch)
     out = Path(out_path)
     out.parent.mkdir(parents=True, exist_ok=True)
     if out.is_file() and out.read_bytes()[-1:] not in (b"", b"\n"):
         with out.open("a", encoding="utf-8") as f:  # a crash cut the last line: close it so appends stay valid
             f.write("\n")
-    done = _done_ids(out)
+    done = _done_ids(out, touch, touch_seed)
     todo = [item for item in items if item.id not in done]
     root = Path(video_root)
-    keys = {item.id: [video_key(v, root, f"item {item.id!r}") for v in item.videos] for item in todo}
+    if touch == "shuffled":  # drawn over all items, not only those left: a resumed run gets the same videos
+        own = {item.id: [video_key(v, root, f"item {item.id!r}") for v in item.videos] for item in items}
+        keys = shuffle_videos(own, touch_seed, {item.id: item.objects for item in items})
+    else:
+        keys = {item.id: [video_key(v, root, f"item {item.id!r}") for v in item.videos] for item in todo}
+    tag: dict[str, Any] = {"touch": touch} | ({"touch_seed": touch_seed} if touch == "shuffled" else {})
     bank = VideoBank(processor.video_config, processor.sensor_types)
-    bank.build([k for ks in keys.values() for k in ks], cache_dir=video_cache)
+    bank.build([k for item in todo for k in keys[item.id]], cache_dir=video_cache)
+    blank = blank_video(processor.video_config) if touch == "blank" else None
     base = getattr(model, "get_base_model", lambda: model)()
     device = next(base.parameters()).device
     if progress is not None:
@@ -85,14 +218,28 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
                              "pixel_values": torch.zeros(0), "sensor_ids": torch.zeros(0, dtype=torch.long)})
             batch = dict(processor.collate(rows, padding_side="left"))
             videos = bank.batch([k for item in chunk for k in keys[item.id]])
-            batch.update({k: v for k, v in videos.items() if k != "appearance_tokens"})
+            # cached ViT tokens are never passed: they would carry the real clips past a blank or shuffled input
+            videos.pop("appearance_tokens", None)
+            if blank is not None:
+                videos["pixel_values"] = blank.unsqueeze(0).repeat(len(videos["sensor_ids"]), 1, 1, 1, 1)
+            batch.update(videos)
             batch = {k: v.to(device) for k, v in batch.items()}
             new = base.generate(**batch, max_new_tokens=max_new_tokens, do_sample=False, eos_token_id=eos,
                                 pad_token_id=pad)
             texts = processor.tokenizer.batch_decode(new, skip_special_tokens=True)
             for item, text in zip(chunk, texts, strict=True):
-                f.write(json.dumps({"id": item.id, "prediction": text.strip(), "task": item.task}) + "\n")
+                record = {"id": item.id, "prediction": text.strip(), "task": item.task, **tag}
+                if touch == "shuffled":  # which clips it was shown, for checking the control
+                    record["touch_videos"] = [_key_name(k, root) for k in keys[item.id]]
+                f.write(json.dumps(record) + "\n")
             f.flush()
             if progress is not None:
                 progress(len(items) - len(todo) + start + len(chunk), len(items))
     return out
+
+
+def _key_name(key: VideoKey, root: Path) -> str:
+    """A video key as a short string: its path under ``root`` (when it is), with ``[start:end]`` for a segment."""
+    path = Path(key[0])
+    name = str(path.relative_to(root)) if path.is_relative_to(root) else str(path)
+    return name if key[1] is None and key[2] is None else f"{name}[{key[1] or ''}:{key[2] or ''}]"
