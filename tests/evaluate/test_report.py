@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from pathlib import Path
 
 import pytest
@@ -152,17 +153,22 @@ def test_per_task_numbers(evaluated) -> None:
     assert report.overall["per_run"] == pytest.approx([19 / 30, 17 / 30])
     assert report.missing == {"seed0": [], "seed1": ["q13"]}
     assert report.unknown_ids == {"seed0": 0, "seed1": 1}
+    # "cues…" states no conclusion and names no object: nothing is checkable, and no rate is made up
+    assert all(r.n_checkable == 0 and r.n_hallucinated == 0 and math.isnan(r.hallucination_rate) for r in rows.values())
+    assert report.overall["n_checkable"] == 0 and math.isnan(report.overall["hallucination_rate"])
 
     data = json.loads((out / "report.json").read_text())
     assert data["n_runs"] == 2 and data["mode"] == "strict"
     assert data["tasks"][0]["task"] == "TFA-hardness" and data["tasks"][0]["accuracy"] == pytest.approx(7 / 12)
     assert data["average"]["value"] == pytest.approx(report.average["value"])
+    assert data["tasks"][0]["hallucination_rate"] is None and data["overall"]["n_checkable"] == 0
 
     with (out / "report.csv").open() as f:
         csv_rows = {r["task"]: r for r in csv.DictReader(f)}
     assert float(csv_rows["OSC"]["accuracy"]) == pytest.approx(0.125)
     assert float(csv_rows["Average"]["accuracy"]) == pytest.approx(report.average["value"], abs=1e-5)
     assert csv_rows["TSA"]["per_run"] == "0.75;0.75"
+    assert csv_rows["TSA"]["hallucination_rate"] == "" and csv_rows["TSA"]["n_checkable"] == "0"
 
 
 def test_markdown(evaluated) -> None:
@@ -172,6 +178,7 @@ def test_markdown(evaluated) -> None:
     assert "| TFA-hardness | 6 | 58.3 |" in md and "58.3 ± 11.8" in md
     assert f"**{100 * report.average['value']:.1f}**" in md
     assert "q13" in md and "no prediction" in md
+    assert "| Halluc. % | Checked |" in md and "| – | 0/12 |" in md and "no checkable replies" in md
     assert "not the paper's DynTAC-Bench" in md
 
 
@@ -183,6 +190,8 @@ def test_scored_records_keep_extras(evaluated) -> None:
     assert first["extra"] == {"latency_s": 0.1} and first["mode"] == "strict" and first["source"] == "sim"
     missing = next(r for r in records if r["id"] == "q13")
     assert missing["missing"] and missing["parse_failed"] and not missing["correct"]
+    assert missing["hallucinated"] is None and missing["consistency"] is None
+    assert first["hallucinated"] is None and first["consistency"]["checkable"] is False
 
 
 def test_report_from_scored_reproduces(evaluated, tmp_path: Path) -> None:
@@ -241,3 +250,115 @@ def test_evaluate_rejects_gold_drift(tmp_path: Path) -> None:
     path.write_text("")
     with pytest.raises(ValueError, match="q99"):
         evaluate([*items, bad], [path], "strict", tmp_path / "out")
+
+
+# Hallucination: realistic questions and replies over three tasks; (item, reply, expected flag) per run.
+def _halluc_items() -> list[QAItem]:
+    rfor = [QAItem(id=f"r{k}", task="RFOR", question="<tactile>\nIs this banana real or fake?", answer=answer,
+                   gold={"real": answer == "real", "fruit": "banana"}, videos=[VideoRef(f"rc{k}")], objects=[f"b{k}"],
+                   source="sim") for k, answer in enumerate(["real", "fake", "real", "fake"])]
+    tfa = [QAItem(id=f"t{k}", task="TFA-hardness", question="<tactile>\nWhat is the hardness level of the object?",
+                  answer=HARD[k % 3], gold={"attribute": "hardness", "level": k % 3}, videos=[VideoRef(f"tc{k}")],
+                  objects=[f"o{k}"], source="sim") for k in range(3)]
+    sfd = [QAItem(id="s0", task="SFD", question="<tactile>\n<tactile>\nWhich object is harder?",
+                  answer="the second object", gold={"kind": "which", "index": 1, "attribute": "hardness",
+                                                    "direction": "more"},
+                  videos=[VideoRef("sc0"), VideoRef("sc1")], objects=["x", "y"], source="sim")]
+    return rfor + tfa + sfd
+
+
+def _think(think: str | None, answer: str) -> str:
+    return (f"<think>{think}</think>" if think else "") + f"<answer>{answer}</answer>"
+
+
+HALLUC_RUNS = {
+    "seed0": {
+        "r0": (_think("The banana keeps a dent after release, so it is real.", "real"), False),
+        "r1": (_think("It springs back at once, so this strawberry is fake.", "fake"), True),  # another object
+        "r2": (_think("The banana keeps a dent, so it is real.", "fake"), True),  # concludes otherwise
+        "r3": (_think(None, "fake"), None),  # no reasoning
+        "t0": (_think("The imprint is broad, so the hardness is highly deformable.", HARD[0]), False),
+        "t1": (_think("The imprint grows slowly during the press.", HARD[1]), None),  # no conclusion
+        "t2": (_think("So the hardness is moderately deformable.", HARD[2]), True),
+        "s0": (_think("Video 2 stays rigid, so the second object is harder.", "the second object"), False),
+    },
+    "seed1": {
+        "r0": (_think("Like a ripe banana it keeps a dent, so it is real.", "real"), False),
+        "r1": (_think("It springs back, so it is fake.", "fake"), False),
+        "r2": (_think("So it is not fake.", "real"), False),
+        "r3": (_think("It springs back, so it is fake.", "fake"), False),
+        "t0": (_think("The peach-like softness shows it, so the hardness is highly deformable.", HARD[0]), False),
+        "t1": (None, None),  # missing prediction
+        "t2": (_think("The steel block does not dent, so the hardness is extremely hard.", HARD[2]), True),
+        "s0": (_think("Video 1 yields, so the first object is softer than the second.", "the second object"), None),
+    },
+}
+
+
+@pytest.fixture(scope="module")
+def halluc(tmp_path_factory: pytest.TempPathFactory):
+    tmp = tmp_path_factory.mktemp("halluc")
+    paths = []
+    for run, replies in HALLUC_RUNS.items():
+        path = tmp / f"{run}.jsonl"
+        path.write_text("".join(json.dumps({"id": i, "prediction": text}) + "\n"
+                                for i, (text, _) in replies.items() if text is not None))
+        paths.append(path)
+    return tmp, evaluate(_halluc_items(), paths, "strict", tmp / "out")
+
+
+def test_hallucination_flags_per_record(halluc) -> None:
+    tmp, _ = halluc
+    for run, replies in HALLUC_RUNS.items():
+        records = {r["id"]: r for r in load_scored(tmp / "out" / "scored" / f"{run}.jsonl")}
+        for item_id, (_, expected) in replies.items():
+            assert records[item_id]["hallucinated"] is expected, (run, item_id, records[item_id]["consistency"])
+    r1 = next(r for r in load_scored(tmp / "out" / "scored" / "seed0.jsonl") if r["id"] == "r1")
+    assert r1["consistency"]["reasons"] == ["other_object"] and "strawberry" in r1["consistency"]["detail"]
+
+
+def test_hallucination_rates_per_task_and_overall(halluc) -> None:
+    tmp, report = halluc
+    rows = {r.task: r for r in report.tasks}
+    # RFOR: checkable 3 + 4 = 7 (r3 of seed0 has no reasoning), flagged 2; TFA-hardness: 2 + 2, flagged 1 + 1;
+    # SFD: 1 + 0 (the opposite comparative is not read), flagged 0.
+    assert (rows["RFOR"].n_checkable, rows["RFOR"].n_hallucinated) == (7, 2)
+    assert rows["RFOR"].hallucination_rate == pytest.approx(2 / 7)
+    assert rows["RFOR"].hallucination_per_run == pytest.approx([2 / 3, 0.0])
+    assert (rows["TFA-hardness"].n_checkable, rows["TFA-hardness"].n_hallucinated) == (4, 2)
+    assert rows["TFA-hardness"].hallucination_per_run == pytest.approx([0.5, 0.5])
+    assert (rows["SFD"].n_checkable, rows["SFD"].hallucination_rate) == (1, 0.0)
+    assert math.isnan(rows["SFD"].hallucination_per_run[1])
+    assert report.overall["n_checkable"] == 12 and report.overall["n_hallucinated"] == 4
+    assert report.overall["hallucination_rate"] == pytest.approx(4 / 12)
+
+    md = (tmp / "out" / "report.md").read_text()
+    assert "| TFA-hardness | 3 | 83.3 |" in md and "| 50.0 | 4/6 |" in md and "| 28.6 | 7/8 |" in md
+    assert "overall hallucination = 33.3% of 12 checkable replies" in md
+    with (tmp / "out" / "report.csv").open() as f:
+        csv_rows = {r["task"]: r for r in csv.DictReader(f)}
+    assert float(csv_rows["RFOR"]["hallucination_rate"]) == pytest.approx(2 / 7)
+    assert (csv_rows["RFOR"]["n_checkable"], csv_rows["RFOR"]["n_hallucinated"]) == ("7", "2")
+    data = json.loads((tmp / "out" / "report.json").read_text())
+    by_task = {t["task"]: t for t in data["tasks"]}
+    assert by_task["SFD"]["hallucination_per_run"] == [0.0, None]
+    assert data["overall"]["hallucination_rate"] == pytest.approx(1 / 3)
+
+
+def test_report_from_scored_keeps_and_tolerates_missing_flags(halluc, tmp_path: Path) -> None:
+    tmp, report = halluc
+    scored = [tmp / "out" / "scored" / f"{run}.jsonl" for run in HALLUC_RUNS]
+    again = report_from_scored(scored, tmp_path / "again")
+    assert [(r.n_checkable, r.n_hallucinated) for r in again.tasks] == [(r.n_checkable, r.n_hallucinated)
+                                                                       for r in report.tasks]
+    # Records written before the check existed have no "hallucinated" key: not checkable, never counted.
+    old = []
+    for path in scored:
+        records = [{k: v for k, v in r.items() if k not in ("hallucinated", "consistency")} for r in load_scored(path)]
+        out = tmp_path / path.name
+        out.write_text("".join(json.dumps(r) + "\n" for r in records))
+        old.append(out)
+    legacy = report_from_scored(old, tmp_path / "legacy")
+    assert [r.per_run for r in legacy.tasks] == [r.per_run for r in report.tasks]
+    assert all(r.n_checkable == 0 and math.isnan(r.hallucination_rate) for r in legacy.tasks)
+    assert "no checkable replies" in (tmp_path / "legacy" / "report.md").read_text()

@@ -8,9 +8,11 @@ kept records alone. :func:`compare_runs` is the paired McNemar test between two 
 
 Numbers: per task, accuracy (the mean over runs), a Wilson 95% interval for item sampling (at the
 mean correct count when there are several runs), mean ± sample std over runs (seed spread),
-the parse-failure rate and the chance level; plus the papers' "Average" (unweighted mean of the
-task columns) and the overall item accuracy. JSON and CSV hold fractions; Markdown and the plot
-show percentages with one decimal, as the papers' tables do.
+the hallucination rate (replies whose reasoning names an object the question does not, or concludes
+otherwise than its own answer, among the checkable ones: :mod:`tacreasoner.tasks.consistency`), the
+parse-failure rate and the chance level; plus the papers' "Average" (unweighted mean of the task
+columns), the overall item accuracy and the overall hallucination rate. JSON and CSV hold fractions;
+Markdown and the plot show percentages with one decimal, as the papers' tables do.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import math
 from collections import Counter
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +36,7 @@ from tacreasoner.evaluate.stats import (
     wilson_interval,
 )
 from tacreasoner.jsonl import iter_jsonl, write_jsonl
+from tacreasoner.tasks.consistency import ObjectVocabulary, check_reasoning, object_vocabulary
 from tacreasoner.tasks.extract import MODES, Mode
 from tacreasoner.tasks.schema import CONTACT_STATES, TASKS, QAItem
 from tacreasoner.tasks.scoring import check_gold, score_predictions
@@ -46,6 +50,7 @@ __all__ = [
     "item_chance",
     "load_predictions",
     "load_scored",
+    "object_names",
     "plot_report",
     "report_from_scored",
     "summarize",
@@ -122,6 +127,13 @@ class TaskRow:
     parse_failure_rate: float
     chance: float
     per_run: list[float]
+    hallucination_rate: float = math.nan
+    """Flagged / checkable replies, pooled over runs; NaN when none is checkable (e.g. records from before)."""
+    n_checkable: int = 0
+    """Checkable replies, summed over runs (at most n × runs)."""
+    n_hallucinated: int = 0
+    """Flagged replies, summed over runs."""
+    hallucination_per_run: list[float] = field(default_factory=list)
 
 
 @dataclass
@@ -132,7 +144,8 @@ class Report:
     average: dict[str, Any]
     """The papers' Average: ``value`` (mean over runs), ``std``, ``per_run``."""
     overall: dict[str, Any]
-    """Item-level accuracy over all tasks: ``accuracy``, ``std``, ``per_run``, ``n``."""
+    """Item-level accuracy over all tasks: ``accuracy``, ``std``, ``per_run``, ``n``; and the hallucination rate
+    pooled over tasks and runs: ``hallucination_rate``, ``n_checkable``, ``n_hallucinated``."""
     missing: dict[str, list[str]] = field(default_factory=dict)
     """Run → ids of items with no prediction (scored wrong + parse failure)."""
     unknown_ids: dict[str, int] = field(default_factory=dict)
@@ -156,20 +169,27 @@ class Report:
                       "not the paper's DynTAC-Bench."]
         lines += ["", "Accuracy in %; 95% CI is the Wilson interval over items"
                   + (" at the mean correct count; mean ± std is over runs (sample std)." if multi else ".")
-                  + " Unparseable answers count as wrong.", ""]
-        head = ["Task", "n", "Accuracy", "95% CI"] + (["Mean ± std"] if multi else []) + ["Parse fail", "Chance"]
+                  + " Unparseable answers count as wrong. Halluc. % = replies whose reasoning names an object "
+                  "the question does not mention or concludes otherwise than its own answer, among the checkable "
+                  "ones (Checked" + (", pooled over runs" if multi else "") + "; docs/benchmark.md).", ""]
+        head = (["Task", "n", "Accuracy", "95% CI"] + (["Mean ± std"] if multi else [])
+                + ["Halluc. %", "Checked", "Parse fail", "Chance"])
         lines += ["| " + " | ".join(head) + " |", "|" + "|".join(["---"] + ["---:"] * (len(head) - 1)) + "|"]
         for r in self.tasks:
             cells = [r.task, str(r.n), _pct(r.accuracy), f"{_pct(r.ci_low)}–{_pct(r.ci_high)}"]
             cells += [_pm(r.mean, r.std)] if multi else []
+            cells += [_pct(r.hallucination_rate), f"{r.n_checkable}/{r.n * len(self.runs)}"]
             cells += [_pct(r.parse_failure_rate), _pct(r.chance)]
             lines.append("| " + " | ".join(cells) + " |")
         avg = ["**Average**", "", f"**{_pct(self.average['value'])}**", ""]
         avg += [_pm(self.average["value"], self.average["std"])] if multi else []
-        lines.append("| " + " | ".join([*avg, "", ""]) + " |")
+        lines.append("| " + " | ".join([*avg, "", "", "", ""]) + " |")
+        n_checkable = self.overall.get("n_checkable", 0)
         lines += ["", "Average = unweighted mean of the task columns (the papers' convention); "
                   f"overall item accuracy = {_pct(self.overall['accuracy'])}%"
-                  + (f" ± {_pct(self.overall['std'])}" if multi else "") + "."]
+                  + (f" ± {_pct(self.overall['std'])}" if multi else "") + "; overall hallucination = "
+                  + (f"{_pct(self.overall['hallucination_rate'])}% of {n_checkable} checkable replies."
+                     if n_checkable else "– (no checkable replies).")]
         for run, ids in self.missing.items():
             if ids:
                 shown = ", ".join(ids[:10]) + (" …" if len(ids) > 10 else "")
@@ -180,7 +200,7 @@ class Report:
         return "\n".join(lines) + "\n"
 
 
-def _pct(x: float) -> str:
+def _pct(x: float | None) -> str:
     return "–" if x is None or math.isnan(x) else f"{100 * x:.1f}"
 
 
@@ -254,18 +274,33 @@ def summarize(runs: Mapping[str, Sequence[dict]], mode: str | None = None) -> Re
         lo, hi = wilson_interval(sum(correct) / len(names), n)
         chances = [first[i].get("chance") for i in ids]
         chance = (sum(chances) / n) if all(c is not None for c in chances) else _task_chance(task)
+        flags = {name: [indexed[name][i].get("hallucinated") for i in ids] for name in names}
+        n_checkable, n_flagged, halluc_rate = _hallucination([f for name in names for f in flags[name]])
         rows.append(TaskRow(task=task, n=n, accuracy=mean, ci_low=lo, ci_high=hi, mean=mean, std=std,
-                            parse_failure_rate=failures / (n * len(names)), chance=chance, per_run=per_run))
+                            parse_failure_rate=failures / (n * len(names)), chance=chance, per_run=per_run,
+                            hallucination_rate=halluc_rate, n_checkable=n_checkable, n_hallucinated=n_flagged,
+                            hallucination_per_run=[_hallucination(flags[name])[2] for name in names]))
     averages = [paper_average(per_run_task[name]) for name in names]
     avg_mean, avg_std = mean_std(averages)
     overall_runs = [sum(bool(r["correct"]) for r in indexed[name].values()) / len(first) for name in names]
     ov_mean, ov_std = mean_std(overall_runs)
+    ov_checkable, ov_flagged, ov_halluc = _hallucination(
+        [r.get("hallucinated") for name in names for r in indexed[name].values()])
     missing = {name: [r["id"] for r in runs[name] if r.get("missing")] for name in names}
     sources = dict(Counter(r.get("source") or "unknown" for r in first.values()))
     return Report(mode=mode, runs=names, tasks=rows,
                   average={"value": avg_mean, "std": avg_std, "per_run": averages},
-                  overall={"accuracy": ov_mean, "std": ov_std, "per_run": overall_runs, "n": len(first)},
+                  overall={"accuracy": ov_mean, "std": ov_std, "per_run": overall_runs, "n": len(first),
+                           "hallucination_rate": ov_halluc, "n_checkable": ov_checkable, "n_hallucinated": ov_flagged},
                   missing=missing, sources=sources)
+
+
+def _hallucination(flags: Sequence[bool | None]) -> tuple[int, int, float]:
+    """(checkable, flagged, flagged / checkable) of per-reply flags; None (not checkable, or a record written
+    before the check existed) stays out of the denominator, and the rate is NaN when nothing is checkable."""
+    checkable = [bool(f) for f in flags if f is not None]
+    flagged = sum(checkable)
+    return len(checkable), flagged, (flagged / len(checkable)) if checkable else math.nan
 
 
 def _task_chance(task: str) -> float:
@@ -321,15 +356,15 @@ def write_report(report: Report, out_dir: str | Path, stem: str = "report") -> d
     paths["md"].write_text(report.to_markdown(), encoding="utf-8")
     with paths["csv"].open("w", newline="", encoding="utf-8") as f:
         w = csv.writer(f)
-        w.writerow(["task", "n", "n_runs", "accuracy", "ci_low", "ci_high", "mean", "std", "parse_failure_rate",
-                    "chance", "per_run"])
+        w.writerow(["task", "n", "n_runs", "accuracy", "ci_low", "ci_high", "mean", "std", "hallucination_rate",
+                    "n_checkable", "n_hallucinated", "parse_failure_rate", "chance", "per_run"])
         for r in report.tasks:
             w.writerow([r.task, r.n, len(report.runs), _num(r.accuracy), _num(r.ci_low), _num(r.ci_high),
-                        _num(r.mean), _num(r.std), _num(r.parse_failure_rate), _num(r.chance),
-                        ";".join(_num(a) for a in r.per_run)])
+                        _num(r.mean), _num(r.std), _num(r.hallucination_rate), r.n_checkable, r.n_hallucinated,
+                        _num(r.parse_failure_rate), _num(r.chance), ";".join(_num(a) for a in r.per_run)])
         avg = report.average
         w.writerow(["Average", "", len(report.runs), _num(avg["value"]), "", "", _num(avg["value"]), _num(avg["std"]),
-                    "", "", ";".join(_num(a) for a in avg["per_run"])])
+                    "", "", "", "", "", ";".join(_num(a) for a in avg["per_run"])])
     paths["json"].write_text(json.dumps(report.to_dict(), indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
     plot_report(report, paths["png"])
     return paths
@@ -346,12 +381,23 @@ def _run_names(paths: Sequence[Path]) -> list[str]:
     return [f"{i}_{s}" for i, s in enumerate(stems)]
 
 
+@lru_cache(maxsize=1)
+def object_names() -> tuple[frozenset[str], ...]:
+    """Known objects for the hallucination check: the simulator catalogue plus the commonsense corpus's everyday
+    objects (``knowledge/objects.yaml``), the names a model trained on that corpus is most likely to bring in."""
+    from tacreasoner.knowledge.facts import knowledge_objects
+
+    return object_vocabulary(o.name for o in knowledge_objects() if o.source != "catalogue")
+
+
 def evaluate(items: Sequence[QAItem], prediction_paths: Sequence[str | Path], mode: Mode | str = "strict",
-             out_dir: str | Path = "eval") -> Report:
+             out_dir: str | Path = "eval", objects: ObjectVocabulary | None = None) -> Report:
     """Score each prediction file (one per seed) against ``items`` and write the report and per-item records.
 
     Before scoring, every item's gold answer text is checked against its gold values (a mismatch is a
-    builder bug and would make the benchmark unanswerable).
+    builder bug and would make the benchmark unanswerable). Each record also gets ``hallucinated``
+    (True/False, None when not checkable) and the check's ``consistency`` details; ``objects`` is the
+    known-object vocabulary for that check (default :func:`object_names`).
     """
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
@@ -363,6 +409,8 @@ def evaluate(items: Sequence[QAItem], prediction_paths: Sequence[str | Path], mo
     (out / "scored").mkdir(parents=True, exist_ok=True)
     paths = [Path(p) for p in prediction_paths]
     item_ids = {item.id for item in items}
+    by_id = {item.id: item for item in items}
+    vocabulary = object_names() if objects is None else objects
     extras = {item.id: {"chance": item_chance(item), "source": item.source, "vocabulary": item.vocabulary}
               for item in items}
     runs: dict[str, list[dict]] = {}
@@ -373,6 +421,9 @@ def evaluate(items: Sequence[QAItem], prediction_paths: Sequence[str | Path], mo
         records = score_predictions(items, {i: p["prediction"] for i, p in preds.items()}, mode)
         for r in records:
             r.update(extras[r["id"]])
+            check = None if r["prediction"] is None else check_reasoning(by_id[r["id"]], r["prediction"], vocabulary)
+            r["hallucinated"] = None if check is None else check.flag
+            r["consistency"] = None if check is None else check.to_dict()
             kept = {k: v for k, v in preds.get(r["id"], {}).items() if k not in ("id", "prediction")}
             if kept:
                 r["extra"] = kept
