@@ -31,16 +31,17 @@ VOCAB = 4096
 TACTILE_ID = 4095
 
 
-def make_batch(batch: int, tpv: int, question: int, answer: int, seed: int) -> dict[str, torch.Tensor]:
+def make_batch(batch: int, tpv: int, question: int, answer: int, seed: int, vocab: int = VOCAB,
+               tactile_id: int = TACTILE_ID) -> dict[str, torch.Tensor]:
     """Samples with 1, 2, 3 videos in turn: question, placeholder runs, answer; loss on the answer only."""
     g = torch.Generator().manual_seed(seed)
     rows, labels, n_videos = [], [], 0
     for i in range(batch):
         k = 1 + i % 3
         n_videos += k
-        q = torch.randint(10, VOCAB - 10, (question,), generator=g)
-        a = torch.randint(10, VOCAB - 10, (answer,), generator=g)
-        ids = torch.cat([q, torch.full((k * tpv,), TACTILE_ID), a])
+        q = torch.randint(10, vocab - 10, (question,), generator=g)
+        a = torch.randint(10, vocab - 10, (answer,), generator=g)
+        ids = torch.cat([q, torch.full((k * tpv,), tactile_id), a])
         rows.append(ids)
         labels.append(torch.cat([torch.full((question + k * tpv,), -100), a]))
     width = max(len(r) for r in rows)

@@ -164,11 +164,22 @@ def test_bad_overrides_are_refused_naming_the_key(tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------------------ shipped configs
 
 
-@pytest.mark.parametrize("name", ["tiny-cpu", "qwen2.5-7b", "qwen2.5-14b"])
+@pytest.mark.parametrize("name", ["tiny-cpu", "qwen2.5-7b", "qwen2.5-14b", "smollm2-135m"])
 def test_the_shipped_configs_load_check_and_round_trip(name: str) -> None:
     config = load_train_config(CONFIGS / f"{name}.yaml")
     config.check()
     assert TrainConfig.from_dict(config.to_dict()) == config  # what the DDP test hands its workers
+
+
+def test_the_smollm2_config_is_the_paper_core_on_the_llm_get_folder() -> None:
+    """No read-out heads, the paper's adapter and learning rate, and room for its longest TouchCoT example (234)."""
+    config = load_train_config(CONFIGS / "smollm2-135m.yaml")
+    assert config.model.llm == "runs/smollm2" and config.model.system_prompt
+    encoder = config.model.encoder
+    assert encoder["use_temporal"] and encoder["question_conditioning"]
+    assert encoder["cross_video"] == 0 and encoder["clip_reader"] is False
+    assert (config.lora.r, config.lora.alpha) == (128, 256) and config.stage2.lr == 2e-4
+    assert config.data.max_length >= 240 and config.data.stage2_data == "touchcot"
 
 
 @pytest.mark.parametrize(("name", "llm", "steps"), [("qwen2.5-7b", "Qwen/Qwen2.5-7B-Instruct", 10000),
