@@ -92,7 +92,13 @@ def split_section(run: Path, split: str, seeds: list[str], bench: Path) -> tuple
     md += md_table(["model", "strict %", "lenient % [Wilson 95%]"],
                    [[k, 100 * (v["strict_accuracy"] or 0), _tsa_cell(v["lenient_correct"], v["n"])]
                     for k, v in tsa.items()])
-    return md + "\n", {"recipe": recipe.to_dict(), "ablations": ablations, "tsa": tsa}
+    ids = [r["id"] for r in base]
+    correct = {}  # per model, one character per item in ``item_ids`` order: paired tests against later models
+    for name in [*seeds, *ablations]:
+        by_id = {r["id"]: r["correct"] for r in _records(run, name, split)}
+        correct[name] = "".join("1" if by_id[i] else "0" for i in ids)
+    return md + "\n", {"recipe": recipe.to_dict(), "ablations": ablations, "tsa": tsa, "item_ids": ids,
+                        "correct": correct}
 
 
 def main() -> None:
