@@ -48,9 +48,10 @@ def header_md(title: str, info: dict) -> str:
             f"- Machine: {m['cpu']}, {m['cores']} cores, Python {m['python']}, NumPy {m['numpy']}\n\n")
 
 
-def write_results(name: str, payload: dict, markdown: str) -> tuple[Path, Path]:
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    json_path, md_path = RESULTS / f"{name}.json", RESULTS / f"{name}.md"
+def write_results(name: str, payload: dict, markdown: str, directory: Path | None = None) -> tuple[Path, Path]:
+    directory = RESULTS if directory is None else Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    json_path, md_path = directory / f"{name}.json", directory / f"{name}.md"
     json_path.write_text(json.dumps(payload, indent=2) + "\n")
     md_path.write_text(markdown)
     return json_path, md_path
@@ -67,8 +68,9 @@ def md_table(headers: list[str], rows: list[list]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def publish(name: str, payload: dict, markdown: str) -> None:
-    """Write the results and show them: what every benchmark script ends with."""
-    paths = write_results(name, payload, markdown)
+def publish(name: str, payload: dict, markdown: str, directory: Path | None = None) -> None:
+    """Write the results (under benchmarks/results/ unless ``directory``) and show them: what every benchmark
+    script ends with."""
+    paths = write_results(name, payload, markdown, directory)
     print(markdown)
     print("wrote", *paths)

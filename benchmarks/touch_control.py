@@ -26,7 +26,6 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import _common
 from _common import header_md, publish, stamp
 
 MODES = ("real", "blank", "shuffled")
@@ -162,9 +161,7 @@ def main() -> None:
                "touch_seed": args.touch_seed, "table": table,
                "predictions": {m: str(predictions_path(args.out, args.split, m)) for m in MODES},
                "reports": {m: reports[m].to_dict() for m in MODES}}
-    if args.results_dir is not None:
-        _common.RESULTS = args.results_dir  # publish writes under _common.RESULTS
-    publish(args.name, payload, md)
+    publish(args.name, payload, md, args.results_dir)
 
 
 if __name__ == "__main__":

@@ -345,9 +345,6 @@ def test_touch_table_from_scored_records(touch_control: Any) -> None:
 
 def test_touch_control_script_runs_end_to_end(touch_control: Any, model_dir: Path, bench: Path, tmp_path: Path,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
-    import _common
-
-    monkeypatch.setattr(_common, "RESULTS", _common.RESULTS)  # main points it at --results-dir: restored after
     results = tmp_path / "results"
     monkeypatch.setattr(sys, "argv", ["touch_control.py", "--model", str(model_dir), "--bench", str(bench),
                                       "--split", "val", "--out", str(tmp_path / "out"), "--limit", "4",
