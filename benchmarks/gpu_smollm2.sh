@@ -9,14 +9,20 @@
 #   bash benchmarks/gpu_smollm2.sh part 2  # carry .gpu/g2: the second half; joins them, then starts `pipeline`
 #                                          # in its own session and follows its log
 #   bash benchmarks/gpu_smollm2.sh wait    # follow the log until the pipeline ends or 9 minutes pass; pack $OUT
+#   (`part 2 sweep` starts the second pipeline instead: the recipe chosen on val, below)
 # The pipeline: `llm get smollm2` from the joined GGUF (sha256 checked), the cost benchmark on the GPU, then in
 # parallel: seeds 0, 1, 2 of the recipe, and the Table 3/4 ablations (no temporal branch, no Stage I; no TouchCoT
 # and no Stage II from seed 0's Stage I), each scored on val and test; the removed-touch control on val for seed 0.
+# The sweep pipeline chooses the recipe on val: Stage I for seeds 0, 1, 2; the Stage II candidates below, each from
+# seed 0's Stage I and scored on val only; benchmarks/choose_on_val.py picks one (ties within 1 point go to the
+# earlier, cheaper one); the winner's Stage II for seeds 1 and 2; then test, once, for the winner's three seeds.
+# Alongside: TouchCoT and plain Stage II for seeds 1 and 2 (the no-TouchCoT ablation on three seeds), the Stage I
+# models (no Stage II) for seeds 1 and 2, and a short recipe sized for 2 CPU cores (cpu60), scored on val.
 set -u
 export PYTHONUNBUFFERED=1 PYTHONPATH=/tmp/site:$PWD/src
-W=/tmp/w
+W=${W:-/tmp/w}
 mkdir -p "$W"
-TR="python3 -m tacreasoner"
+TR=${TR:-python3 -m tacreasoner}
 FP32="--set runtime.mixed_precision=no --set runtime.progress=false"  # fp32 on a GPU: docs/training.md
 el() { echo "[$(date +%H:%M:%S)] $*"; }
 
@@ -38,6 +44,36 @@ score() {  # score NAME MODEL_DIR: val and test
         el "$1 $split rc=$? $(grep -m1 -i 'average' "$W/eval/$1/$split/report.md" 2>/dev/null)"
     done
 }
+score_on() {  # score_on NAME MODEL_DIR SPLIT...
+    local name=$1 model=$2 split
+    shift 2
+    for split in "$@"; do
+        $TR evaluate --model "$model" --bench "$W/quickstart/bench" --split "$split" --out "$W/eval/$name/$split" \
+            --batch-size 64 > "$W/logs/$name.eval_$split.log" 2>&1
+        el "$name $split rc=$? $(grep -m1 -i 'average' "$W/eval/$name/$split/report.md" 2>/dev/null)"
+    done
+}
+stage1_done() {  # stage1_done SRC: wait until SRC's Stage I has finished
+    while ! grep -qs steps_done "$W/runs/$1/stage1/run.json"; do sleep 10; done
+}
+after_stage1() {  # after_stage1 SRC NAME: wait for SRC's Stage I, then give NAME a copy of it
+    stage1_done "$1"
+    mkdir -p "$W/runs/$2" && cp -r "$W/runs/$1/stage1" "$W/runs/$2/"
+}
+# Stage II candidates, cheapest first (choose_on_val.py breaks ties by this order): the paper's TouchCoT recipe
+# and plain answers, with LoRA rank, learning rate and steps varied one at a time around plain (which beat TouchCoT
+# on val in the first GPU run, gpu_smollm2.md). Not tried: 2000 Stage II steps (it would hold up the choice).
+declare -A CAND=(
+    [plain_s500]="--set data.stage2_data=plain --set stage2.steps=500"
+    [plain_r16]="--set data.stage2_data=plain --set lora.r=16 --set lora.alpha=32"
+    [plain_lr1e-4]="--set data.stage2_data=plain --set stage2.lr=1.0e-4 --set stage2.projector_lr=1.0e-4"
+    [plain]="--set data.stage2_data=plain"
+    [plain_lr5e-4]="--set data.stage2_data=plain --set stage2.lr=5.0e-4 --set stage2.projector_lr=5.0e-4"
+    [cot]=""
+    [cot_lr5e-4]="--set stage2.lr=5.0e-4 --set stage2.projector_lr=5.0e-4"
+)
+ORDER="plain_s500 plain_r16 plain_lr1e-4 plain plain_lr5e-4 cot cot_lr5e-4"
+
 variant() {  # variant NAME ARGS...: both stages, then scores
     stage "$1" 1 "${@:2}" && stage "$1" 2 "${@:2}" && score "$1" "$W/runs/$1/stage2/model"
 }
@@ -58,7 +94,7 @@ part)
     if [ "$2" = 2 ]; then
         cat $W/gguf.part1 $W/gguf.part2 > $W/smollm2.gguf && rm $W/gguf.part*
         cp -r "$PWD" $W/repo  # the pipeline outlives this call's copy of the tree
-        (cd $W/repo && setsid nohup bash benchmarks/gpu_smollm2.sh pipeline > $W/pipeline.log 2>&1 &)
+        (cd $W/repo && setsid nohup bash benchmarks/gpu_smollm2.sh "pipeline${3:+_$3}" > $W/pipeline.log 2>&1 &)
         sleep 420; cat $W/pipeline.log
     fi
     ;;
@@ -83,12 +119,52 @@ pipeline)
         > $W/logs/touch.log 2>&1; el "touch control rc=$?"
     el "pipeline done"
     ;;
+pipeline_sweep)
+    el "llm get"; $TR llm get smollm2 --gguf $W/smollm2.gguf --out $W/smollm2 2>&1 | grep -v -i "it/s\]" | tail -3
+    export OMP_NUM_THREADS=1  # 13 trainings side by side on 16 cores
+    for s in 0 1 2; do stage "seed$s" 1 --set seed=$s & done
+    (stage cpu60 1 --set stage1.steps=300 && stage cpu60 2 --set stage2.steps=600 --set data.stage2_data=plain \
+        && score_on cpu60 "$W/runs/cpu60/stage2/model" val) &
+    sweep=()
+    for c in $ORDER; do
+        # shellcheck disable=SC2086  # CAND holds several words
+        (after_stage1 seed0 "$c" && stage "$c" 2 ${CAND[$c]} && score_on "$c" "$W/runs/$c/stage2/model" val) &
+        sweep+=($!)
+    done
+    for s in 1 2; do
+        for c in cot plain; do
+            # shellcheck disable=SC2086
+            (after_stage1 "seed$s" "$c.seed$s" && stage "$c.seed$s" 2 --set seed=$s ${CAND[$c]}) &
+        done
+        (stage1_done "seed$s" && score_on "no_stage2.seed$s" "$W/runs/seed$s/stage1/model" val test) &
+    done
+    wait "${sweep[@]}"
+    winner=$(python3 benchmarks/choose_on_val.py --eval $W/eval --tie 1 --out $W/results/sweep_choice.json $ORDER)
+    el "chosen on val: $winner"
+    score_on "$winner" "$W/runs/$winner/stage2/model" test &
+    for s in 1 2; do
+        if [ ! -d "$W/runs/$winner.seed$s" ]; then
+            # shellcheck disable=SC2086
+            (after_stage1 "seed$s" "$winner.seed$s" && stage "$winner.seed$s" 2 --set seed=$s ${CAND[$winner]} \
+                && score_on "$winner.seed$s" "$W/runs/$winner.seed$s/stage2/model" val test) &
+        fi
+    done
+    for c in plain cot; do  # after the winner's runs were started: the no-TouchCoT ablation on seeds 1 and 2
+        [ "$c" = "$winner" ] || score_on "$c" "$W/runs/$c/stage2/model" test &
+        for s in 1 2; do
+            (while ! grep -qs steps_done "$W/runs/$c.seed$s/stage2/run.json"; do sleep 10; done
+             score_on "$c.seed$s" "$W/runs/$c.seed$s/stage2/model" val test) &
+        done
+    done
+    wait
+    el "pipeline done"
+    ;;
 wait)
     for _ in $(seq 54); do grep -q "pipeline done" $W/pipeline.log 2>/dev/null && break; sleep 10; done
     cat $W/pipeline.log
     ;;
 *)
-    echo "usage: $0 setup | part 1 | part 2 | wait" >&2; exit 2 ;;
+    echo "usage: $0 setup | part 1 | part 2 [sweep] | wait" >&2; exit 2 ;;
 esac
 if [ -n "${OUT:-}" ] && [ -d $W/logs ]; then  # what has come so far: logs, reports, cost results
     (cd $W && tar czf "$OUT/gpu_smollm2.tgz" pipeline.log logs eval results \

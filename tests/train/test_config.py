@@ -303,3 +303,13 @@ def test_the_fsdp_config_wraps_qwen2_decoder_layers(monkeypatch: pytest.MonkeyPa
     assert plugin.fsdp_version == 2 and plugin.transformer_cls_names_to_wrap == ["Qwen2DecoderLayer"]
     assert hasattr(modeling_qwen2, "Qwen2DecoderLayer")
     assert plugin.state_dict_type.name == "FULL_STATE_DICT" and plugin.reshard_after_forward is True
+
+
+def test_set_reads_exponent_numbers_without_a_dot_as_floats() -> None:
+    from tacreasoner.cli import _parse_overrides
+
+    # YAML 1.1 reads "1e-4" as a string; `--set stage2.lr=1e-4` must still set a float
+    overrides = _parse_overrides(["stage2.lr=1e-4", "stage1.lr=2.5E+0", "output_dir=run1e5", "seed=3"])
+    assert overrides == {"stage2.lr": 1e-4, "stage1.lr": 2.5, "output_dir": "run1e5", "seed": 3}
+    config = load_train_config(CONFIGS / "smollm2-135m.yaml", overrides)
+    assert config.stage2.lr == pytest.approx(1e-4) and config.stage1.lr == pytest.approx(2.5)
