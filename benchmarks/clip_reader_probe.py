@@ -36,8 +36,8 @@ def _bank(model, processor, tokenized: list, cache: Path):
 def _test_items(model, processor, bench: Path, cache: Path) -> tuple[list, list]:
     """The single-clip test items and, per item, its video's encoder output."""
     from tacreasoner.tasks.bench import load_bench
-    from tacreasoner.train.comparator import encoder_outputs
     from tacreasoner.train.data import _answer_only, _from_items, bench_video_root, tokenize_examples
+    from tacreasoner.train.heads import encoder_outputs
     from tacreasoner.train.reader import item_traits
 
     info, items = load_bench(bench, "test")
@@ -53,16 +53,17 @@ def _test_items(model, processor, bench: Path, cache: Path) -> tuple[list, list]
 def _fit_like_the_trainer(model, processor, run: Path) -> None:
     """Fit a clip reader on the run's Stage II examples, with the quickstart's own data settings."""
     from tacreasoner.train.data import load_examples, tokenize_examples
+    from tacreasoner.train.head_settings import reader_vocabulary
+    from tacreasoner.train.heads import fit_heads
     from tacreasoner.train.quickstart import QuickstartPaths, quickstart_config
-    from tacreasoner.train.reader import clip_labels, fit_clip_reader
 
     config = quickstart_config(QuickstartPaths(run), 0)
     data = config.data
     examples = load_examples(2, data.bench, touchcot=data.touchcot, stage2_data=data.stage2_data, tasks=data.tasks)
     tokenized, _ = tokenize_examples(processor, examples, data.max_length)
     bank = _bank(model, processor, tokenized, Path(data.video_cache))
-    model.set_clip_reader(True)
-    fit_clip_reader(model, processor, tokenized, bank, clip_labels(data.bench), seed=config.seed)
+    model.set_clip_reader(*reader_vocabulary())
+    fit_heads(model, processor, tokenized, bank, data.bench, seed=config.seed, folds=data.head_folds)
 
 
 def main() -> None:
@@ -80,7 +81,7 @@ def main() -> None:
     import torch
 
     from tacreasoner.evaluate.predict import load_trained
-    from tacreasoner.model.clip_reader import READER_TRAITS
+    from tacreasoner.train.head_settings import READER_TRAITS
     from tacreasoner.train.reader import item_traits
 
     model_dir = args.model or args.run / "model"

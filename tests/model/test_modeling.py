@@ -250,7 +250,7 @@ def _comparisons(n: int, k: int, gen: torch.Generator, tokens: int = 2, hidden: 
 
 
 def test_cross_video_comparator_fit_picks_by_attribute_and_comparative_then_freezes() -> None:
-    from tacreasoner.model.tactile_encoder import CrossVideoFusion
+    from tacreasoner.model.heads import CrossVideoFusion
 
     fusion = CrossVideoFusion(8, 2, 2.0, 3, 6, tokens_per_video=2, attributes=2).train()
     gen = torch.Generator().manual_seed(0)
@@ -310,7 +310,7 @@ def _namings(n: int, k: int, gen: torch.Generator, names: int = 6, tokens: int =
 
 
 def test_name_matcher_assigns_unseen_prompts_and_replaces_the_pick_there_only() -> None:
-    from tacreasoner.model.tactile_encoder import CrossVideoFusion
+    from tacreasoner.model.heads import CrossVideoFusion
 
     fusion = CrossVideoFusion(8, 2, 2.0, 3, 6, tokens_per_video=2, attributes=2).eval()
     gen = torch.Generator().manual_seed(0)
@@ -505,17 +505,19 @@ def test_cached_appearance_tokens_give_the_same_output_as_running_the_vit() -> N
 
 
 def test_set_clip_reader_adds_or_removes_it_and_the_saved_config_follows(tmp_path) -> None:
+    from tacreasoner.train.head_settings import MAX_LEVELS, READER_TRAITS
+
     model = tiny_model()
     assert model.projector.clip_reader is None and not model.encoder_config.clip_reader
     inputs, pv = batch([prompt(1)]), videos(1)
     with torch.no_grad():
         before = model(**inputs, pixel_values=pv).logits
-        model.set_clip_reader(True)
+        model.set_clip_reader(READER_TRAITS, MAX_LEVELS)
         assert torch.equal(model(**inputs, pixel_values=pv).logits, before)  # unfitted: nothing changes
     assert model.config.encoder["clip_reader"] and model.projector.clip_reader is not None
     model.save_pretrained(tmp_path)
     assert TacReasonerForCausalLM.from_pretrained(tmp_path).projector.clip_reader is not None
-    model.set_clip_reader(False)
+    model.set_clip_reader()
     assert model.projector.clip_reader is None and not model.encoder_config.clip_reader
 
 

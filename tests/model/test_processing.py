@@ -18,6 +18,7 @@ from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.modeling import TacReasonerForCausalLM, TactileAnswer
 from tacreasoner.model.processing import IGNORE_INDEX, OPTION_MASK_OFFSET, TacReasonerProcessor, option_spans
 from tacreasoner.model.tokenizer import TACTILE_PAD, train_tokenizer
+from tacreasoner.tasks.answers import OPTION_MARKER
 
 ENCODER = TactileEncoderConfig(num_frames=4, image_size=(32, 32), patch_size=8, hidden_size=32, num_layers=1,
                                num_heads=2, temporal_hidden_size=32, temporal_tokens=2, fusion_heads=2,
@@ -28,7 +29,8 @@ TEXTS = ["Is the first object harder than the second? <think>The first one dents
 
 @pytest.fixture(scope="module")
 def processor() -> TacReasonerProcessor:
-    return TacReasonerProcessor.for_encoder(train_tokenizer(TEXTS, vocab_size=400), ENCODER)
+    return TacReasonerProcessor.for_encoder(train_tokenizer(TEXTS, vocab_size=400),
+                                            ENCODER.replace(option_marker=OPTION_MARKER))
 
 
 def _clip(seed: int, sensor: str = "mini") -> TactileClip:
@@ -69,7 +71,19 @@ def test_example_labels_only_the_answer_and_masks_the_question(processor) -> Non
     ("Is (A) harder than (B) ?", []),  # an empty name is no list
 ])
 def test_option_spans_find_the_names_a_question_lists(text: str, names: list[str]) -> None:
-    assert [text[a:b] for a, b in option_spans(text)] == names
+    assert [text[a:b] for a, b in option_spans(text, OPTION_MARKER)] == names
+
+
+def test_options_are_read_only_with_a_marker_from_config(processor) -> None:
+    """The model package knows no benchmark format: without ``encoder.option_marker`` nothing is an option."""
+    question = "<tactile> <tactile>\nWhich is which: (A) kitchen sponge (B) harder object? Answer 1-X."
+    plain = TacReasonerProcessor.for_encoder(processor.tokenizer, ENCODER.replace(option_marker=""))
+    enc = plain.encode_conversation(plain.messages(question), add_generation_prompt=True)
+    assert set(enc.question_mask) == {0, 1}
+    numbered = TacReasonerProcessor.for_encoder(processor.tokenizer, ENCODER.replace(option_marker=r"\[(\d)\]"))
+    enc = numbered.encode_conversation(numbered.messages("<tactile> <tactile>\nPick [1] kitchen sponge [2] fake "
+                                                         "apple."), add_generation_prompt=True)
+    assert max(enc.question_mask) == OPTION_MASK_OFFSET + 1
 
 
 def test_question_mask_marks_each_listed_option_s_name(processor) -> None:

@@ -19,8 +19,11 @@ ENCODER = dict(num_frames=4, image_size=[32, 32], patch_size=8, hidden_size=32, 
 
 
 def tiny_model(seed: int = 0, text: dict[str, Any] | None = None, **encoder: Any) -> TacReasonerForCausalLM:
+    from tacreasoner.train.head_settings import with_head_settings
+
     torch.manual_seed(seed)
-    config = TacReasonerConfig(text_config={**TEXT_CONFIG, **(text or {})}, encoder={**ENCODER, **encoder},
+    encoder = with_head_settings({**ENCODER, **encoder})
+    config = TacReasonerConfig(text_config={**TEXT_CONFIG, **(text or {})}, encoder=encoder,
                                tactile_token_id=TACTILE_ID)
     return TacReasonerForCausalLM(config).eval()
 

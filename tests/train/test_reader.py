@@ -14,8 +14,8 @@ def inputs(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) ->
 
 
 def test_clip_labels_gather_each_train_clip_traits_from_its_single_clip_items(inputs) -> None:
-    from tacreasoner.model.clip_reader import READER_TRAITS
     from tacreasoner.tasks.bench import load_bench
+    from tacreasoner.train.head_settings import READER_TRAITS
     from tacreasoner.train.reader import clip_labels, item_traits
 
     labels = clip_labels(inputs["bench"])

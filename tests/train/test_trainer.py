@@ -232,8 +232,12 @@ def test_stage_two_fits_the_comparator_first_and_keeps_it_frozen(inputs, tmp_pat
     fitted = info["comparator"]
     assert fitted["comparisons"] > 0 and 0.0 <= fitted["pick"] <= 1.0
     assert fitted["attribute"] > 0.9  # the attribute is plain in the question
+    # Stage II's prompts carry out-of-fold verdicts: every fold's copy was fitted without its objects
+    assert len(fitted["folds"]) == 5 and 0.0 <= fitted["held_out_agreement"] <= 1.0
+    assert all(f["fitted_on"] < info["examples"] for f in fitted["folds"])
     # and the name matcher on the OSC items (three videos, three listed names)
-    assert fitted["named"] > 0 and 0.0 <= fitted["assigned"] <= 1.0
+    named = info["name_matcher"]
+    assert named["named"] > 0 and 0.0 <= named["assigned"] <= 1.0 and "held_out_agreement" in named
     fusion = model.projector.cross_video
     assert bool(fusion.directions.abs().sum() > 0) and bool((fusion.feature_mean != 0).any())
     assert fusion.names_fitted.tolist() == [False, False, False, True]
@@ -255,7 +259,7 @@ def test_stage_two_fits_the_clip_reader_on_train_gold_even_on_a_stage_one_model_
     from trainsetup import ENCODER
 
     from tacreasoner.model.build import load_model
-    from tacreasoner.model.clip_reader import READER_TRAITS
+    from tacreasoner.train.head_settings import READER_TRAITS
 
     out = tmp_path / "reader"
     shutil.copytree(two_stage_run / "stage1", out / "stage1", ignore=shutil.ignore_patterns("checkpoint-*"))

@@ -6,6 +6,7 @@ Kept free of torch so configs can be validated (and documented) without the mode
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass
 from typing import Any
 
@@ -70,6 +71,15 @@ class TactileEncoderConfig:
     state), a vector for the level a ridge read-out of its encoder output gives (``ClipReader``, in the projector),
     fitted when Stage II starts on the training clips' gold (``train.reader``) and frozen: Stage II keeps the
     single-clip readings Stage I had (docs/training.md)."""
+    clip_reader_traits: tuple[str, ...] = ()
+    """What the clip reader reads (its traits' names; the trainer fills them from the training data's labels,
+    ``train.reader``): the model knows no benchmark's vocabulary."""
+    clip_reader_levels: int = 0
+    """The most levels of one clip-reader trait."""
+    option_marker: str = ""
+    """A regular expression matching the marker before each listed option of a question (e.g. ``\\(([A-Z])\\)``
+    for "(A) kitchen sponge (B) fake apple"): the processor marks each option's name tokens for the name matcher.
+    Empty: options are not read. The trainer sets it from the benchmark's format when the matcher is on."""
     video_labels: bool = False
     """Prompts holding several videos name each before its tokens ("Video 2: "), as the reasoning names them: the
     LLM can then find a video's tokens by its name (the processor's job; kept here so a saved model keeps it)."""
@@ -78,6 +88,7 @@ class TactileEncoderConfig:
         self.image_size = tuple(int(v) for v in self.image_size)  # type: ignore[assignment]
         self.sensor_types = tuple(str(s) for s in self.sensor_types)
         self.cross_video_attributes = tuple(str(a) for a in self.cross_video_attributes)
+        self.clip_reader_traits = tuple(str(t) for t in self.clip_reader_traits)
         self.validate()
 
     # ------------------------------------------------------------------ derived sizes
@@ -129,6 +140,18 @@ class TactileEncoderConfig:
             raise ValueError(f"encoder config: cross_video_loss must be a number ≥ 0, got {self.cross_video_loss!r}")
         if not isinstance(self.clip_reader, bool):
             raise ValueError(f"encoder config: clip_reader must be true or false, got {self.clip_reader!r}")
+        if self.clip_reader and not self.clip_reader_traits:
+            raise ValueError("encoder config: clip_reader needs clip_reader_traits (the traits it reads; `tacreasoner "
+                             "train` fills them from the benchmark's labels)")
+        if self.clip_reader_traits and (not isinstance(self.clip_reader_levels, int) or self.clip_reader_levels < 2):
+            raise ValueError(f"encoder config: clip_reader_levels must be a whole number ≥ 2 with clip_reader_traits, "
+                             f"got {self.clip_reader_levels!r}")
+        if self.option_marker:
+            try:
+                re.compile(self.option_marker)
+            except re.error as exc:
+                raise ValueError(f"encoder config: option_marker {self.option_marker!r} is not a regular "
+                                 f"expression ({exc})") from None
         if not isinstance(self.cross_video_names, bool):
             raise ValueError(f"encoder config: cross_video_names must be true or false, got {self.cross_video_names!r}")
         if not isinstance(self.video_labels, bool):
@@ -148,6 +171,7 @@ class TactileEncoderConfig:
         out["image_size"] = list(self.image_size)
         out["sensor_types"] = list(self.sensor_types)
         out["cross_video_attributes"] = list(self.cross_video_attributes)
+        out["clip_reader_traits"] = list(self.clip_reader_traits)
         return out
 
     @classmethod

@@ -80,7 +80,8 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         enc = self.encoder_config
         self.projector = TactileProjector(enc.hidden_size, config.text_hidden_size, enc.video_slots, enc.cross_video,
                                           enc.fusion_heads, enc.mlp_ratio, config.text_hidden_size,
-                                          enc.tokens_per_video, len(enc.cross_video_attributes), enc.clip_reader)
+                                          enc.tokens_per_video, len(enc.cross_video_attributes),
+                                          enc.clip_reader_traits if enc.clip_reader else (), enc.clip_reader_levels)
         self.post_init()
 
     # ------------------------------------------------------------------ HF plumbing
@@ -100,19 +101,25 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
     def encoder_config(self) -> TactileEncoderConfig:
         return self.tactile_encoder.config
 
-    def set_clip_reader(self, on: bool) -> None:
-        """Give the model an unfitted clip reader (``encoder.clip_reader``), or take it away. The reader is fitted
-        when Stage II starts and does nothing before, so Stage II's config may decide it for any Stage I model."""
-        if on == (self.projector.clip_reader is not None):
+    def set_clip_reader(self, traits: tuple[str, ...] | list[str] = (), levels: int = 0) -> None:
+        """Give the model an unfitted clip reader for ``traits`` (with at most ``levels`` levels each), or take it
+        away (no traits). The reader is fitted when Stage II starts and does nothing before, so Stage II's config
+        may decide it for any Stage I model."""
+        traits = tuple(traits)
+        current = self.projector.clip_reader
+        if (current.traits if current is not None else ()) == traits and \
+                (current is None or current.levels_per_trait == levels):
             return
-        from tacreasoner.model.clip_reader import ClipReader
+        from tacreasoner.model.heads import ClipReader
 
-        enc = self.encoder_config.replace(clip_reader=on)
+        enc = self.encoder_config.replace(clip_reader=bool(traits), clip_reader_traits=traits,
+                                          clip_reader_levels=levels if traits else 0)
+        enc.validate()
         self.tactile_encoder.config = enc
         self.config.encoder = enc.to_dict()
         weight = self.projector.linear_1.weight
-        self.projector.clip_reader = ClipReader(enc.hidden_size, enc.tokens_per_video).to(weight.device, weight.dtype) \
-            if on else None
+        self.projector.clip_reader = ClipReader(enc.hidden_size, enc.tokens_per_video, traits, levels).to(
+            weight.device, weight.dtype) if traits else None
 
     # ------------------------------------------------------------------ building from parts
     @classmethod
@@ -237,8 +244,9 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
     def _embed(self, input_ids: torch.Tensor, pixel_values: torch.Tensor | None, attention_mask: torch.Tensor | None,
                question_mask: torch.Tensor | None, sensor_ids: torch.Tensor | None,
                appearance_tokens: torch.Tensor | None, video_winner: torch.Tensor | None = None,
-               ) -> tuple[torch.Tensor, torch.Tensor | None]:
-        """:meth:`embed_inputs` plus the cross-video comparator's loss against ``video_winner`` (None without)."""
+               readings: dict[str, torch.Tensor] | None = None) -> tuple[torch.Tensor, torch.Tensor | None]:
+        """:meth:`embed_inputs` plus the cross-video comparator's loss against ``video_winner`` (None without);
+        ``readings``: the read-out heads' verdicts made elsewhere (``heads.base.READINGS``), used instead of theirs."""
         text_embeds, features, per_sample, compared, options = self.tactile_features(
             input_ids, pixel_values, attention_mask, question_mask, sensor_ids, appearance_tokens)
         if features is None:
@@ -248,9 +256,12 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
             first = (per_sample.cumsum(0) - per_sample).repeat_interleave(per_sample)
             slots = torch.arange(len(features), device=input_ids.device) - first
         places = None  # the name matcher's assignment, read twice: by the tactile tokens and the option names
-        if options is not None and self.projector.cross_video is not None:
+        if readings and "places" in readings:
+            places = readings["places"]
+        elif options is not None and self.projector.cross_video is not None:
             places = self.projector.cross_video.places(features, per_sample, options)
-        tactile, comparison_loss = self.projector.project(features, slots, per_sample, compared, video_winner, places)
+        tactile, comparison_loss = self.projector.project(features, slots, per_sample, compared, video_winner, places,
+                                                          readings)
         mask = (input_ids == self.config.tactile_token_id).unsqueeze(-1)
         embeds = text_embeds.masked_scatter(mask, tactile.to(text_embeds.dtype).reshape(-1, text_embeds.shape[-1]))
         if places is not None and question_mask is not None:
@@ -264,7 +275,8 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
                 position_ids: torch.Tensor | None = None, past_key_values: Any = None,
                 inputs_embeds: torch.Tensor | None = None, use_cache: bool | None = None,
                 appearance_tokens: torch.Tensor | None = None, video_winner: torch.Tensor | None = None,
-                loss_only: bool = False, **kwargs: Any) -> CausalLMOutputWithPast:
+                readings: dict[str, torch.Tensor] | None = None, loss_only: bool = False,
+                **kwargs: Any) -> CausalLMOutputWithPast:
         """``loss_only`` (with ``labels``): the LM head and its softmax run on the labelled positions only and
         no logits are returned: the same loss and gradients for a fraction of the work where prompts and
         padding outnumber answer tokens (training; benchmarks/results/train_speed.md).
@@ -273,13 +285,14 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         optionally the index of its attribute in ``encoder.cross_video_attributes`` and whether it asks for more (1)
         or less (0) (−100: none); with
         ``encoder.cross_video`` and labels, the comparator's cross-entropy × ``encoder.cross_video_loss`` joins the
-        loss."""
+        loss. ``readings`` (optional): the read-out heads' verdicts made elsewhere, written instead of their own:
+        Stage II trains on out-of-fold readings (``heads.crossfit``; keys in ``heads.base.READINGS``)."""
         comparison_loss = None
         if inputs_embeds is None:
             if input_ids is None:
                 raise ValueError("give input_ids (from TacReasonerProcessor) or inputs_embeds")
             inputs_embeds, comparison_loss = self._embed(input_ids, pixel_values, attention_mask, question_mask,
-                                                         sensor_ids, appearance_tokens, video_winner)
+                                                         sensor_ids, appearance_tokens, video_winner, readings)
         elif pixel_values is not None:
             raise ValueError("pixel_values need input_ids to find the placeholders; got inputs_embeds instead")
         if past_key_values is not None:  # passed on only when given: newer transformers call it `cache` and warn

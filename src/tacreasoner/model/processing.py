@@ -42,18 +42,20 @@ PROCESSOR_CONFIG_NAME = "processor_config.json"
 OPTION_MASK_OFFSET = 2
 """``question_mask`` value of the tokens of the first listed option's name (the k-th's: this + k)."""
 
-_OPTION_MARKER = re.compile(r"\(([A-Z])\)")
 _OPTION_END = re.compile(r"[.?!;\n]")
 _OPTION_TRAILER = re.compile(r"(?:[\s,:;]|\b(?:and|or)\b)+$", re.IGNORECASE)
 
 
-def option_spans(text: str) -> list[tuple[int, int]]:
-    """Character spans of the names a question lists as "(A) name (B) name …" (from A, consecutive letters, at
-    least two; the last ends at the sentence's end), or [] when it lists none."""
-    markers = list(_OPTION_MARKER.finditer(text))
+def option_spans(text: str, marker: str | re.Pattern[str]) -> list[tuple[int, int]]:
+    """Character spans of the names a question lists after ``marker`` (a regular expression whose first group is
+    the option's one-letter label, e.g. ``\\(([A-Z])\\)`` for "(A) name (B) name …"; ``encoder.option_marker``):
+    labels from the first letter on, consecutive, at least two; the last name ends at the sentence's end. [] when
+    the question lists none. The format is the benchmark's, handed in by config."""
+    pattern = re.compile(marker) if isinstance(marker, str) else marker
     run: list[re.Match[str]] = []
-    for m in markers:
-        if m.group(1) == chr(ord("A") + len(run)):
+    for m in pattern.finditer(text):
+        label = m.group(1) if pattern.groups else ""
+        if len(label) == 1 and (ord(label) == ord(run[0].group(1)) + len(run) if run else label in "Aa1"):
             run.append(m)
         elif run:
             break
@@ -104,7 +106,7 @@ class TacReasonerProcessor:
 
     def __init__(self, tokenizer: PreTrainedTokenizerBase, video_config: VideoProcessingConfig | None = None, *,
                  tokens_per_video: int = 5, sensor_types: Sequence[str] = DEFAULT_SENSOR_TYPES,
-                 system_prompt: str | None = None, video_labels: bool = False) -> None:
+                 system_prompt: str | None = None, video_labels: bool = False, option_marker: str = "") -> None:
         if tokens_per_video < 1:
             raise ValueError(f"tokens_per_video must be ≥ 1, got {tokens_per_video}")
         self.tokenizer = tokenizer
@@ -113,6 +115,8 @@ class TacReasonerProcessor:
         self.sensor_types = tuple(sensor_types)
         self.system_prompt = system_prompt
         self.video_labels = bool(video_labels)
+        self.option_marker = option_marker or ""
+        self._option_pattern = re.compile(self.option_marker) if self.option_marker else None
         self.tactile_token_id = self._single_token_id(TACTILE_PAD)
         if getattr(tokenizer, "chat_template", None) is None:
             raise ValueError("the tokenizer has no chat template: "
@@ -125,7 +129,7 @@ class TacReasonerProcessor:
         video = VideoProcessingConfig(num_frames=encoder.num_frames, image_size=encoder.image_size,
                                       **kwargs.pop("video", {}))
         return cls(tokenizer, video, tokens_per_video=encoder.tokens_per_video, sensor_types=encoder.sensor_types,
-                   video_labels=encoder.video_labels, **kwargs)
+                   video_labels=encoder.video_labels, option_marker=encoder.option_marker, **kwargs)
 
     def _single_token_id(self, token: str) -> int:
         ids = self.tokenizer.convert_tokens_to_ids([token])
@@ -194,7 +198,8 @@ class TacReasonerProcessor:
             span = (start, start + len(message["content"]))
             if message["role"] == "user":
                 user_spans.append(span)
-                options = [(span[0] + a, span[0] + b) for a, b in option_spans(message["content"])]
+                listed = option_spans(message["content"], self._option_pattern) if self._option_pattern else []
+                options = [(span[0] + a, span[0] + b) for a, b in listed]
             elif message["role"] == "assistant":
                 # the turn's end marker (<|im_end|>) is part of what the model must learn to produce
                 end = upto.find(IM_END, span[1])
@@ -286,7 +291,8 @@ class TacReasonerProcessor:
     def to_dict(self) -> dict[str, Any]:
         return {"processor_class": type(self).__name__, "video": self.video_config.to_dict(),
                 "tokens_per_video": self.tokens_per_video, "sensor_types": list(self.sensor_types),
-                "system_prompt": self.system_prompt, "video_labels": self.video_labels}
+                "system_prompt": self.system_prompt, "video_labels": self.video_labels,
+                "option_marker": self.option_marker}
 
     def save_pretrained(self, directory: str | os.PathLike[str], **kwargs: Any) -> None:
         directory = Path(directory)
@@ -299,11 +305,13 @@ class TacReasonerProcessor:
         directory = Path(directory)
         path = directory / PROCESSOR_CONFIG_NAME
         data = read_json_object(path, "a processor config written by TacReasonerProcessor.save_pretrained")
-        known = {"processor_class", "video", "tokens_per_video", "sensor_types", "system_prompt", "video_labels"}
+        known = {"processor_class", "video", "tokens_per_video", "sensor_types", "system_prompt", "video_labels",
+                 "option_marker"}
         if unknown := sorted(set(data) - known):
             raise ValueError(f"{path}: unknown keys {unknown}; known: {', '.join(sorted(known))}")
         tokenizer = AutoTokenizer.from_pretrained(directory)
         return cls(tokenizer, VideoProcessingConfig.from_dict(data.get("video")),
                    tokens_per_video=int(data.get("tokens_per_video", 5)),
                    sensor_types=data.get("sensor_types", DEFAULT_SENSOR_TYPES), system_prompt=data.get("system_prompt"),
-                   video_labels=bool(data.get("video_labels", False)))
+                   video_labels=bool(data.get("video_labels", False)),
+                   option_marker=str(data.get("option_marker") or ""))

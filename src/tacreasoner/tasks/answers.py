@@ -13,6 +13,9 @@ from tacreasoner.tasks.schema import CONTACT_STATES, ORDINALS, TASKS
 from tacreasoner.tasks.vocab import get_vocabulary
 
 LETTERS = "ABC"
+OPTION_MARKER = r"\(([A-Z])\)"
+"""How a question marks each option it lists ("(A) kitchen sponge (B) fake apple"): a regular expression whose
+group is the option's letter. The model reads options only through this, handed in as ``encoder.option_marker``."""
 COMBINED_SEP = "; "
 
 

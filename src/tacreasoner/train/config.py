@@ -59,9 +59,10 @@ class ModelSettings:
         if self.dtype not in DTYPES:
             raise ValueError(f"model.dtype: {self.dtype!r} is not one of {', '.join(DTYPES)}")
         from tacreasoner.model.encoder_config import TactileEncoderConfig
+        from tacreasoner.train.head_settings import with_head_settings
 
         try:
-            TactileEncoderConfig.from_dict(self.encoder)
+            TactileEncoderConfig.from_dict(with_head_settings(self.encoder))
         except (TypeError, ValueError) as exc:
             raise ValueError(f"model.encoder: {exc}") from None
 
@@ -98,6 +99,10 @@ class DataSettings:
     """Use only the first N training examples (trial runs)."""
     video_cache: str | None = None
     """Directory keeping preprocessed videos between runs (stages, seeds, ablations, evaluation); null = none."""
+    head_folds: int = 5
+    """Stage II writes into each training prompt the verdict of a read-out head (``encoder.clip_reader``,
+    ``encoder.cross_video``) fitted without that prompt's objects: the objects are split into this many folds
+    (cross-fitting; ``train.heads``). 1: in-sample verdicts (near gold on the prompts the head was fitted on)."""
 
     def check(self) -> None:
         if self.stage2_data not in STAGE2_DATA:
@@ -106,6 +111,9 @@ class DataSettings:
             raise ValueError(f"data.max_length must be at least 16, got {self.max_length}")
         if self.length_group_batches < 1:
             raise ValueError(f"data.length_group_batches must be at least 1, got {self.length_group_batches}")
+        if not isinstance(self.head_folds, int) or isinstance(self.head_folds, bool) or self.head_folds < 1:
+            raise ValueError(f"data.head_folds must be a whole number ≥ 1 (1: no cross-fitting), got "
+                             f"{self.head_folds!r}")
         if self.max_items is not None and self.max_items < 1:
             raise ValueError(f"data.max_items must be at least 1, got {self.max_items}")
         if self.repeat is not None:

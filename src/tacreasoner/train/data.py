@@ -197,6 +197,8 @@ class Tokenized:
     more: int = IGNORE_INDEX
     assignment: tuple[int, ...] = ()
     task: str = ""
+    readings: dict[str, Any] | None = None
+    """The read-out heads' out-of-fold verdicts on this example (``train.heads``), what Stage II writes."""
 
     @property
     def n_labels(self) -> int:
@@ -308,7 +310,34 @@ def collate(processor: Any, examples: Sequence[Tokenized], bank: VideoBank,
     batch.update(bank.batch([k for e in examples for k in e.videos]))
     if attributes is not None:
         batch["video_winner"] = comparison_targets(examples, attributes)
+    if any(e.readings for e in examples):
+        batch["readings"] = head_readings(examples)
     return batch
+
+
+def head_readings(examples: Sequence[Tokenized]) -> dict[str, torch.Tensor]:
+    """The examples' read-out head verdicts as the model takes them (``model.heads.base.READINGS``): ``levels``
+    V×traits (−1: none), ``pick`` B×most videos (scores; 0 past a prompt's videos), ``places`` B×most options
+    (−1: not matched)."""
+    out: dict[str, torch.Tensor] = {}
+    given = [e.readings or {} for e in examples]
+    if any("levels" in r for r in given):
+        traits = next(r["levels"].shape[1] for r in given if "levels" in r)
+        out["levels"] = torch.cat([r["levels"] if "levels" in r else torch.full((len(e.videos), traits), -1)
+                                   for e, r in zip(examples, given, strict=True)]).long()
+    if any("pick" in r for r in given):
+        pick = torch.zeros(len(examples), max(len(e.videos) for e in examples))
+        for i, r in enumerate(given):
+            if "pick" in r:
+                pick[i, :len(r["pick"])] = r["pick"].float()
+        out["pick"] = pick
+    if any("places" in r for r in given):
+        places = torch.full((len(examples), max(len(r.get("places", ())) for r in given)), -1, dtype=torch.long)
+        for i, r in enumerate(given):
+            if "places" in r:
+                places[i, :len(r["places"])] = r["places"]
+        out["places"] = places
+    return out
 
 
 def comparison_targets(examples: Sequence[Tokenized], attributes: Sequence[str]) -> torch.Tensor:

@@ -1,26 +1,20 @@
-"""Fit the clip reader (``encoder.clip_reader``) when Stage II starts.
+"""What the clip reader (``encoder.clip_reader``) reads and its labels: the benchmark's vocabulary, kept out of the
+model package.
 
-The tactile encoder is frozen in Stage II, so each training video's encoder output is fixed: the reader is fitted
-on those outputs against the gold the benchmark's train split gives each clip (TFA levels, real or fake, the contact
-state of a segment), then frozen, and Stage II's LoRA and projector learn to read its level vectors from the tokens.
-Only train items give labels, so nothing of the test split reaches the reader. Fitting is deterministic, so a
-resumed Stage II fits the same reader again.
+The reader is fitted when Stage II starts (``train.heads``) against the gold the benchmark's train split gives each
+clip: TFA levels, real or fake, the contact state of a segment. Only train items give labels, so nothing of the
+test split reaches the reader.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
 
-import torch
-
-from tacreasoner.model.clip_reader import READER_TRAITS
 from tacreasoner.tasks.schema import CONTACT_STATES, QAItem
-from tacreasoner.train.comparator import encoder_outputs
-from tacreasoner.train.data import Tokenized, VideoBank, VideoKey, train_items, video_key
+from tacreasoner.train.data import VideoKey, train_items, video_key
+from tacreasoner.train.head_settings import READER_TRAITS
 
-__all__ = ["clip_labels", "fit_clip_reader", "item_traits", "labelled"]
+__all__ = ["clip_labels", "item_traits"]
 
 
 def item_traits(item: QAItem) -> dict[str, int]:
@@ -54,33 +48,3 @@ def clip_labels(bench: str | Path) -> dict[VideoKey, list[int]]:
                                  f"another train item {row[t]}")
             row[t] = level
     return labels
-
-
-def labelled(examples: Sequence[Tokenized], labels: dict[VideoKey, list[int]]) -> list[Tokenized]:
-    """The examples holding at least one video with a label: what the reader is fitted on."""
-    return [e for e in examples if any(k in labels for k in e.videos)]
-
-
-def fit_clip_reader(model: Any, processor: Any, examples: Sequence[Tokenized], bank: VideoBank,
-                    labels: dict[VideoKey, list[int]], seed: int,
-                    progress: Callable[[int, int], None] | None = None, batch_size: int = 16) -> dict[str, Any]:
-    """Fit ``model``'s clip reader on every labelled video of ``examples``, read in its own prompt (the temporal
-    branch hears the question), and freeze its read-out. Returns per trait the videos and the share read right."""
-    reader = model.projector.clip_reader
-    if reader is None:
-        raise ValueError("the model has no clip reader (encoder.clip_reader is false)")
-    chosen = labelled(examples, labels)
-    if not chosen:
-        raise ValueError("no training video has a label for the clip reader (the train split has no TFA, RFOR or "
-                         "OCSE items on these videos)")
-    was_training = model.training
-    model.eval()
-    videos, _, _ = encoder_outputs(model, processor, chosen, bank, batch_size, progress)
-    model.train(was_training)
-    rows, targets = [], []
-    for example, outputs in zip(chosen, videos, strict=True):
-        for key, output in zip(example.videos, outputs, strict=True):
-            if key in labels:
-                rows.append(output)
-                targets.append(labels[key])
-    return {"videos": len(rows), **reader.fit(torch.stack(rows), torch.tensor(targets), seed=seed)}

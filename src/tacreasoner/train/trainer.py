@@ -31,11 +31,11 @@ from typing import Any
 
 import torch
 
-from tacreasoner.train.comparator import fit_comparator, fit_sets
 from tacreasoner.train.config import TrainConfig
 from tacreasoner.train.data import VideoBank, batch_plan, collate, load_examples, repeat_tasks, tokenize_examples
+from tacreasoner.train.head_settings import with_head_settings
+from tacreasoner.train.heads import fit_heads, model_heads
 from tacreasoner.train.progress import StageBar
-from tacreasoner.train.reader import clip_labels, fit_clip_reader, labelled
 from tacreasoner.train.state import (
     cosine_with_warmup,
     latest_checkpoint,
@@ -130,13 +130,20 @@ def _build(config: TrainConfig, stage: int) -> tuple[Any, Any]:
     kwargs: dict[str, Any] = {"dtype": dtype}
     if config.model.attn_implementation:
         kwargs["attn_implementation"] = config.model.attn_implementation
+    encoder = with_head_settings(config.model.encoder)
     if stage == 2 and not config.stage1.skip:
         model, processor = load_model(config.stage_dir(1) / MODEL_DIR, **kwargs)
-        if "clip_reader" in config.model.encoder:  # fitted in Stage II only: Stage II's config decides
-            model.set_clip_reader(bool(config.model.encoder["clip_reader"]))
+        if "clip_reader" in encoder:  # fitted in Stage II only: Stage II's config decides
+            model.set_clip_reader(encoder.get("clip_reader_traits", ()), encoder.get("clip_reader_levels", 0))
         return model, processor
-    return build_model(config.model.llm, appearance=config.model.appearance, encoder=config.model.encoder,
+    return build_model(config.model.llm, appearance=config.model.appearance, encoder=encoder,
                        system_prompt=config.model.system_prompt, **kwargs)
+
+
+
+def _to_device(batch: dict[str, Any], device: Any) -> dict[str, Any]:
+    return {k: v.to(device) if torch.is_tensor(v) else _to_device(v, device) if isinstance(v, dict) else v
+            for k, v in batch.items()}
 
 
 def _param_groups(model: torch.nn.Module, lr: float, projector_lr: float, weight_decay: float) -> list[dict]:
@@ -247,15 +254,10 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
     if config.data.cache_appearance:
         bank.cache_appearance(base.tactile_encoder)
     fitted: dict[str, Any] = {}
-    if stage == 2 and base.projector.clip_reader is not None:  # encoder frozen from here: fit, then freeze
-        labels = clip_labels(config.data.bench)
-        bar.stage("fitting clip reader", len(labelled(tokenized, labels)))
-        fitted["clip_reader"] = fit_clip_reader(base, processor, tokenized, bank, labels, config.seed,
-                                                progress=lambda done, _total: bar.update(done))
-    if stage == 2 and base.projector.cross_video is not None:  # encoder frozen from here: fit, then freeze
-        bar.stage("fitting comparator", sum(len(s) for s in fit_sets(base, tokenized)))
-        fitted["comparator"] = fit_comparator(base, processor, tokenized, bank, config.seed,
-                                              progress=lambda done, _total: bar.update(done))
+    if stage == 2 and model_heads(base):  # encoder frozen from here: fit the read-out heads, then freeze them
+        bar.stage("fitting read-out heads", len(tokenized))
+        tokenized, fitted = fit_heads(base, processor, tokenized, bank, config.data.bench, config.seed,
+                                      config.data.head_folds, progress=lambda done, _total: bar.update(done))
     tokenized = repeat_tasks(tokenized, config.data.repeat)
     # the comparator trains with the LLM's loss only in Stage I and only when asked (encoder.cross_video_loss):
     # only then do the batches carry its targets
@@ -323,8 +325,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
         global_tokens = sum(tokenized[i].n_labels for i in indices)
         step_loss = torch.zeros((), device=accelerator.device)
         for m, chunk in enumerate(micro):
-            batch = {k: v.to(accelerator.device) if torch.is_tensor(v) else v
-                     for k, v in collate(processor, [tokenized[i] for i in chunk], bank, attributes).items()}
+            batch = _to_device(collate(processor, [tokenized[i] for i in chunk], bank, attributes), accelerator.device)
             sync = m == len(micro) - 1
             ctx = accelerator.no_sync(trained) if not sync and world > 1 else nullcontext()
             with ctx, accelerator.autocast():

@@ -5,8 +5,9 @@ from __future__ import annotations
 import pytest
 import torch
 
-from tacreasoner.model.clip_reader import MAX_LEVELS, READER_TRAITS, ClipReader
+from tacreasoner.model.heads import ClipReader
 from tacreasoner.model.tactile_encoder import TactileProjector
+from tacreasoner.train.head_settings import MAX_LEVELS, READER_TRAITS
 
 HARDNESS, REAL, STATE = (READER_TRAITS.index(t) for t in ("hardness", "real", "state"))
 
@@ -26,14 +27,14 @@ def _clips(n: int = 120, tokens: int = 2, hidden: int = 8, seed: int = 0) -> tup
 
 
 def test_an_unfitted_reader_leaves_tokens_unchanged() -> None:
-    reader = ClipReader(hidden=8, tokens_per_video=2)
+    reader = ClipReader(hidden=8, tokens_per_video=2, traits=READER_TRAITS, levels=MAX_LEVELS)
     videos, _ = _clips()
     assert not reader.fitted
     assert torch.equal(reader(videos), videos)
 
 
 def test_fit_reads_each_labelled_trait_and_writes_one_loud_vector_per_level() -> None:
-    reader = ClipReader(hidden=8, tokens_per_video=2)
+    reader = ClipReader(hidden=8, tokens_per_video=2, traits=READER_TRAITS, levels=MAX_LEVELS)
     videos, labels = _clips()
     out = reader.fit(videos, labels, penalty=1.0, seed=3)
     assert set(out) == {"hardness", "real"}
@@ -53,7 +54,7 @@ def test_fit_reads_each_labelled_trait_and_writes_one_loud_vector_per_level() ->
 
 
 def test_fit_refuses_what_it_cannot_use() -> None:
-    reader = ClipReader(hidden=8, tokens_per_video=2)
+    reader = ClipReader(hidden=8, tokens_per_video=2, traits=READER_TRAITS, levels=MAX_LEVELS)
     videos, labels = _clips()
     with pytest.raises(ValueError, match="V×8 labels"):
         reader.fit(videos, labels[:, :3])
@@ -67,7 +68,8 @@ def test_fit_refuses_what_it_cannot_use() -> None:
 
 
 def test_the_projector_reads_each_video_before_the_cross_video_layer() -> None:
-    projector = TactileProjector(8, 16, cross_video=3, question_dim=8, tokens_per_video=2, clip_reader=True)
+    projector = TactileProjector(8, 16, cross_video=3, question_dim=8, tokens_per_video=2, reader_traits=READER_TRAITS,
+                                 reader_levels=MAX_LEVELS)
     videos, labels = _clips(n=6)
     before = projector(videos, per_sample=torch.tensor([1, 2, 3]), question=torch.zeros(3, 8))
     projector.clip_reader.fit(*_clips(), penalty=1.0)
