@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# The SmolLM2 recipe (configs/smollm2-135m.yaml) on a lent GPU (the device tool), behind
-# benchmarks/results/gpu_smollm2.md. The machine reaches no registry and a call carries at most 64 MiB, so the work
+# The SmolLM2 recipes on a lent GPU (the device tool), behind benchmarks/results/gpu_smollm2.md and smollm2_recipe.md;
+# every run starts from configs/smollm2-135m-touchcot.yaml (the paper's recipe; the file was configs/smollm2-135m.yaml
+# when both runs were made) and changes it with --set. The machine reaches no registry and a call carries at most 64 MiB, so the work
 # is split over calls on one warm machine, everything kept under /tmp/w there:
 #   bash benchmarks/gpu_smollm2.sh setup   # carry .gpu/whl (av, transformers, peft, gguf wheels for Python 3.12)
 #                                          # and .gpu/run (encoder/ + data.tgz: bench/ and the TouchCoT train file);
@@ -29,7 +30,7 @@ el() { echo "[$(date +%H:%M:%S)] $*"; }
 stage() {  # stage NAME STAGE ARGS...: one training stage of the recipe under $W/runs/NAME
     local name=$1 st=$2
     shift 2
-    $TR train --stage "$st" --config configs/smollm2-135m.yaml --set output_dir="$W/runs/$name" \
+    $TR train --stage "$st" --config configs/smollm2-135m-touchcot.yaml --set output_dir="$W/runs/$name" \
         --set model.llm="$W/smollm2" --set model.appearance="$W/quickstart/encoder" \
         --set data.bench="$W/quickstart/bench" \
         --set data.touchcot="$W/quickstart/touchcot/touchcot/touchcot_train.jsonl" \
@@ -167,6 +168,8 @@ wait)
     echo "usage: $0 setup | part 1 | part 2 [sweep] | wait" >&2; exit 2 ;;
 esac
 if [ -n "${OUT:-}" ] && [ -d $W/logs ]; then  # what has come so far: logs, reports, cost results
-    (cd $W && tar czf "$OUT/gpu_smollm2.tgz" pipeline.log logs eval results \
-        runs/*/stage*/run.json runs/*/stage*/train_log.jsonl repo/benchmarks/results/gpu_smollm2_cost* 2>/dev/null)
+    # only what exists so far (tar exits 2 on a missing path, which made early calls report rc=2)
+    (cd $W && shopt -s nullglob && have=() && for p in pipeline.log logs eval results runs/*/stage*/run.json \
+        runs/*/stage*/train_log.jsonl repo/benchmarks/results/gpu_smollm2_cost*; do [ -e "$p" ] && have+=("$p"); done
+     tar czf "$OUT/gpu_smollm2.tgz" "${have[@]}")
 fi

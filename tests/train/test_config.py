@@ -164,22 +164,38 @@ def test_bad_overrides_are_refused_naming_the_key(tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------------------ shipped configs
 
 
-@pytest.mark.parametrize("name", ["tiny-cpu", "qwen2.5-7b", "qwen2.5-14b", "smollm2-135m"])
+@pytest.mark.parametrize("name", ["tiny-cpu", "qwen2.5-7b", "qwen2.5-14b", "smollm2-135m", "smollm2-135m-touchcot",
+                                  "smollm2-135m-cpu"])
 def test_the_shipped_configs_load_check_and_round_trip(name: str) -> None:
     config = load_train_config(CONFIGS / f"{name}.yaml")
     config.check()
     assert TrainConfig.from_dict(config.to_dict()) == config  # what the DDP test hands its workers
 
 
-def test_the_smollm2_config_is_the_paper_core_on_the_llm_get_folder() -> None:
-    """No read-out heads, the paper's adapter and learning rate, and room for its longest TouchCoT example (234)."""
-    config = load_train_config(CONFIGS / "smollm2-135m.yaml")
+@pytest.mark.parametrize("name", ["smollm2-135m", "smollm2-135m-touchcot", "smollm2-135m-cpu"])
+def test_the_smollm2_configs_are_the_paper_core_on_the_llm_get_folder(name: str) -> None:
+    """No read-out heads, and room for the longest TouchCoT example (234 SmolLM2 tokens)."""
+    config = load_train_config(CONFIGS / f"{name}.yaml")
     assert config.model.llm == "runs/smollm2" and config.model.system_prompt
     encoder = config.model.encoder
     assert encoder["use_temporal"] and encoder["question_conditioning"]
     assert encoder["cross_video"] == 0 and encoder["clip_reader"] is False
-    assert (config.lora.r, config.lora.alpha) == (128, 256) and config.stage2.lr == 2e-4
-    assert config.data.max_length >= 240 and config.data.stage2_data == "touchcot"
+    assert config.data.max_length >= 240
+
+
+def test_the_smollm2_recipes_hold_what_was_chosen_on_val() -> None:
+    """The default: plain answers with LoRA r16 (chosen on val); TouchCoT: the paper's adapter and learning rate;
+    the CPU variant: the default, shortened."""
+    chosen = load_train_config(CONFIGS / "smollm2-135m.yaml")
+    assert chosen.data.stage2_data == "plain" and (chosen.lora.r, chosen.lora.alpha) == (16, 32)
+    assert chosen.stage2.lr == 2e-4 and (chosen.stage1.steps, chosen.stage2.steps) == (1000, 1000)
+    paper = load_train_config(CONFIGS / "smollm2-135m-touchcot.yaml")
+    assert paper.data.stage2_data == "touchcot" and (paper.lora.r, paper.lora.alpha) == (128, 256)
+    assert paper.stage2.lr == 2e-4 and paper.output_dir != chosen.output_dir
+    cpu = load_train_config(CONFIGS / "smollm2-135m-cpu.yaml")
+    assert (cpu.stage1.steps, cpu.stage2.steps) == (300, 600) and cpu.output_dir not in (chosen.output_dir,
+                                                                                         paper.output_dir)
+    assert (cpu.lora, cpu.data.stage2_data, cpu.stage2.lr) == (chosen.lora, "plain", chosen.stage2.lr)
 
 
 @pytest.mark.parametrize(("name", "llm", "steps"), [("qwen2.5-7b", "Qwen/Qwen2.5-7B-Instruct", 10000),
