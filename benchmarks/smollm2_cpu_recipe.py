@@ -77,7 +77,8 @@ def main() -> None:
            f"{'met' if train_total <= 3600 else 'NOT met'}); peak resident memory {peak_mb:.0f} MB; answering val "
            f"took {wall['val'] / 60:.1f} more minutes.\n\n")
     md += (f"Val (DynTAC-Sim-Bench, strict, one seed; the recipe was not chosen from it): Average "
-           f"**{100 * report['average']['value']:.1f}%**, item accuracy {100 * report['overall']['accuracy']:.1f}%.\n\n")
+           f"**{100 * report['average']['value']:.1f}%**, item accuracy "
+           f"{100 * report['overall']['accuracy']:.1f}%.\n\n")
     md += md_table(["task", "val %"], [[t["task"], 100 * t["accuracy"]] for t in report["tasks"]])
     publish(args.name, payload, md)
 

@@ -115,7 +115,8 @@ def main() -> None:
     info = stamp()
     seeds = args.seeds.split(",")
     md = header_md(args.title, info)
-    md += (f"- Trained and evaluated on: {args.machine}\n- By: `{args.command}`\n- Recipe: `configs/smollm2-135m-touchcot.yaml` "
+    md += (f"- Trained and evaluated on: {args.machine}\n- By: `{args.command}`\n"
+           "- Recipe: `configs/smollm2-135m-touchcot.yaml` "
            f"(Stage I 1000 + Stage II 1000 steps, LoRA r 128 / α 256, lr 2e-4, fp32), DynTAC-Sim-Bench (simulated, "
            f"not the paper's DynTAC-Bench), held-out objects; strict extraction unless said.\n\n")
     md += (args.notes + "\n\n") if args.notes else ""

@@ -62,7 +62,8 @@ def main() -> None:
     md = header_md("Tiny default vs SmolLM2's paper core, same items (DynTAC-Sim-Bench, strict)", info)
     md += ("Tiny default: the quickstart's recipe (tiny LLM pre-trained here, comparator, name matcher and clip reader "
            f"heads), trained on this machine's 2 CPU cores, seeds {args.seeds}. SmolLM2: "
-           "`configs/smollm2-135m-touchcot.yaml` (SmolLM2-135M-Instruct, 4-bit GGUF weights, paper core, no heads), trained "
+           "`configs/smollm2-135m-touchcot.yaml` (SmolLM2-135M-Instruct, 4-bit GGUF weights, paper core, no heads), "
+           "trained "
            f"on a lent H100 ({args.smollm2.name}). p: exact McNemar test of tiny seed k against SmolLM2 seed k on "
            "all items of the split (↑ items only the tiny model answers right, ↓ only SmolLM2).\n\n")
     payload = {**info, "seeds": seeds, "splits": {}}
