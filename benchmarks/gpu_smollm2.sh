@@ -38,12 +38,7 @@ stage() {  # stage NAME STAGE ARGS...: one training stage of the recipe under $W
     el "$name stage $st rc=$?"
 }
 score() {  # score NAME MODEL_DIR: val and test
-    local split
-    for split in val test; do
-        $TR evaluate --model "$2" --bench "$W/quickstart/bench" --split "$split" --out "$W/eval/$1/$split" \
-            --batch-size 64 > "$W/logs/$1.eval_$split.log" 2>&1
-        el "$1 $split rc=$? $(grep -m1 -i 'average' "$W/eval/$1/$split/report.md" 2>/dev/null)"
-    done
+    score_on "$1" "$2" val test
 }
 score_on() {  # score_on NAME MODEL_DIR SPLIT...
     local name=$1 model=$2 split

@@ -39,7 +39,12 @@ def _clip_rows(objects: int = 30, clips: int = 4, seed: int = 0) -> tuple[HeadRo
 def test_every_head_implements_the_one_interface() -> None:
     fusion = CrossVideoFusion(8, 2, 2.0, 3, 6, tokens_per_video=2, attributes=2)
     for head in (ClipReader(8, 2, TRAITS, 3), ComparatorHead(fusion), NameMatcherHead(fusion)):
-        assert isinstance(head, ReadoutHead) and head.name
+        assert isinstance(head, ReadoutHead) and head.name and head.reading in ("levels", "pick", "places")
+    # a prompt whose fold had nothing to fit on gets a verdict that says nothing, shaped as a real one
+    rows = HeadRows(videos=[torch.zeros(2, 2, 8)], options=[torch.zeros(2, 6)])
+    assert ClipReader(8, 2, TRAITS, 3).silent(rows, 0).tolist() == [[-1, -1], [-1, -1]]
+    assert ComparatorHead(fusion).silent(rows, 0).tolist() == [0.0, 0.0]
+    assert NameMatcherHead(fusion).silent(rows, 0).tolist() == [-1, -1]
 
 
 def test_object_folds_put_each_object_in_one_fold_and_use_them_all() -> None:

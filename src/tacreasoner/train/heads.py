@@ -65,20 +65,6 @@ def _targets(head: ReadoutHead, model: Any, examples: Sequence[Tokenized], label
     raise ValueError(f"no training targets known for the read-out head {head.name!r}")
 
 
-def _no_verdict(head: ReadoutHead, rows: HeadRows, i: int) -> torch.Tensor:
-    """The reading of a prompt whose fold had nothing to fit on: says nothing."""
-    k = len(rows.videos[i])
-    if head.name == "clip_reader":
-        return torch.full((k, len(head.traits)), -1, dtype=torch.long)
-    if head.name == "comparator":
-        return torch.zeros(k)
-    return torch.full((len(rows.options[i]) if rows.options is not None else 0,), -1, dtype=torch.long)
-
-
-READING_KEY = {"clip_reader": "levels", "comparator": "pick", "name_matcher": "places"}
-"""The ``readings`` key each head's verdict travels under (``model.heads.base.READINGS``)."""
-
-
 def fit_heads(model: Any, processor: Any, examples: Sequence[Tokenized], bank: VideoBank, bench: str | Path,
               seed: int, folds: int = 5, progress: Callable[[int, int], None] | None = None, batch_size: int = 16,
               ) -> tuple[list[Tokenized], dict[str, Any]]:
@@ -107,7 +93,7 @@ def fit_heads(model: Any, processor: Any, examples: Sequence[Tokenized], bank: V
             continue
         if folds >= 2:
             cross = crossfit(head, rows, objects, folds, seed)
-            read = [r if r is not None else _no_verdict(head, rows, i) for i, r in enumerate(cross.readings)]
+            read = [r if r is not None else head.silent(rows, i) for i, r in enumerate(cross.readings)]
             out_of_fold = {"folds": cross.folds, "held_out_agreement": _agreement(head, read, rows.targets)}
         else:
             read, out_of_fold = None, {"folds": "none (in-sample readings: data.head_folds < 2)"}
@@ -115,7 +101,7 @@ def fit_heads(model: Any, processor: Any, examples: Sequence[Tokenized], bank: V
         if read is None:
             read = head.read_rows(rows)
         for i, r in enumerate(read):
-            readings[i][READING_KEY[head.name]] = r
+            readings[i][head.reading] = r
     if fusion is not None:
         if stats.get("name_matcher", {}).get("named"):
             model.projector.loud_option_marks(model.get_input_embeddings().weight, seed + 2)

@@ -46,6 +46,8 @@ class ReadoutHead(Protocol):
     """A benchmark-specific read-out plugged into the projector. Optional: the paper's model has none."""
 
     name: str
+    reading: str
+    """The ``readings=`` key its verdicts travel under (:data:`READINGS`)."""
 
     def fit_rows(self, rows: HeadRows, seed: int = 0) -> dict[str, Any]:
         """Fit on the prompts of ``rows`` that have a target, freeze the fitted part; what it was fitted on and how
@@ -54,6 +56,10 @@ class ReadoutHead(Protocol):
 
     def read_rows(self, rows: HeadRows) -> list[torch.Tensor]:
         """Per prompt its verdict, in the form the projector writes (:data:`READINGS`)."""
+        ...
+
+    def silent(self, rows: HeadRows, i: int) -> torch.Tensor:
+        """The verdict of prompt ``i`` that says nothing (its fold's copy had nothing to fit on)."""
         ...
 
 

@@ -33,6 +33,7 @@ class ClipReader(nn.Module):
     trained; the level vectors start as loud as a token and train with the projector."""
 
     name = "clip_reader"
+    reading = "levels"
 
     def __init__(self, hidden: int, tokens_per_video: int, traits: Sequence[str], levels: int) -> None:
         super().__init__()
@@ -131,6 +132,9 @@ class ClipReader(nn.Module):
         """Per prompt its videos' levels (k×traits, −1 where a trait was not fitted)."""
         with torch.no_grad():
             return [self.levels(v) for v in rows.videos]
+
+    def silent(self, rows: HeadRows, i: int) -> torch.Tensor:
+        return torch.full((len(rows.videos[i]), len(self.traits)), -1, dtype=torch.long)
 
 
 def _labelled_videos(rows: HeadRows) -> tuple[torch.Tensor, torch.Tensor]:

@@ -324,6 +324,7 @@ class ComparatorHead:
     prompt (pick, attribute index, more) or None; the reading: a score per video (its softmax is the verdict)."""
 
     name = "comparator"
+    reading = "pick"
 
     def __init__(self, fusion: CrossVideoFusion) -> None:
         self.fusion = fusion
@@ -336,6 +337,9 @@ class ComparatorHead:
         chosen = rows.subset(picked)
         return self.fusion.fit(chosen.videos, chosen.questions, torch.tensor([list(t) for t in chosen.targets]),
                                seed=seed)
+
+    def silent(self, rows: HeadRows, i: int) -> torch.Tensor:
+        return torch.zeros(len(rows.videos[i]))  # equal scores: the verdict is the mean of the place vectors
 
     def read_rows(self, rows: HeadRows) -> list[torch.Tensor]:
         if rows.questions is None:
@@ -358,6 +362,7 @@ class NameMatcherHead:
     (−1 where the prompt is not matched)."""
 
     name = "name_matcher"
+    reading = "places"
 
     def __init__(self, fusion: CrossVideoFusion) -> None:
         self.fusion = fusion
@@ -374,6 +379,9 @@ class NameMatcherHead:
         chosen = rows.subset(named)
         return self.fusion.fit_names(chosen.videos, chosen.options, torch.tensor([list(t) for t in chosen.targets]),
                                      seed=seed)
+
+    def silent(self, rows: HeadRows, i: int) -> torch.Tensor:
+        return torch.full((len(rows.options[i]) if rows.options is not None else 0,), -1, dtype=torch.long)
 
     def read_rows(self, rows: HeadRows) -> list[torch.Tensor]:
         fusion, out = self.fusion, []
