@@ -297,3 +297,40 @@ def test_bank_errors_name_file_and_line(tmp_path: Path) -> None:
     path, _ = _bank_copy(tmp_path, "version: rules-v1", "version: rules-v1\nextras: []")
     with pytest.raises(RulesBankError, match=r"unknown section\(s\) \['extras'\]"):
         load_bank(path)
+
+
+def _pc_jobs(jobs: list[CoTJob], n: int = 60) -> list[CoTJob]:
+    """PC jobs on the prepared SFD pairs (PC is built only for PhysiCLeAR benchmarks; the rules teacher reads
+    the same cues): each relation in turn, the second video's rank set to match it."""
+    out = []
+    relations = ("more", "less", "similar")
+    for i, job in enumerate(variants(jobs, n, task="SFD")):
+        relation, attribute = relations[i % 3], job.item.gold["attribute"]
+        first = job.item.meta["ranks"][0]
+        second = {"more": first - 1, "less": first + 1, "similar": first}[relation] % 3
+        gold = {"attribute": attribute, "relation": relation}
+        question = (f"<tactile>\n<tactile>\nCompared with the second object, does the first object have more, less "
+                    f"or similar {attribute}? Answer more, less or similar.")
+        item = dataclasses.replace(job.item, task="PC", question=question, answer=relation, gold=gold,
+                                   meta={**job.item.meta, "ranks": [first, second]})
+        out.append(CoTJob(item=item, stages=list(job.stages), videos=list(job.videos)))
+    return out
+
+
+@pytest.mark.parametrize("style", ["full", "brief", "brief-first", "brief-levels"])
+def test_pc_reasoning_concludes_the_relation_in_every_style(jobs: list[CoTJob], style: str) -> None:
+    from tacreasoner.tasks.consistency import check_reasoning
+
+    teacher = RulesTeacher(seed=0, style=style)
+    seen = Counter()
+    for job in _pc_jobs(jobs):
+        text = teacher.generate_sync(job, build_prompt(job)).text
+        think = _think(text)
+        assert score_item(job.item, text, "strict").correct, f"{job.item.id}: {text[-160:]}"
+        last = re.split(r"(?<=[.!?])\s+", think.strip())[-1]
+        assert score_item(job.item, f"<answer>{last}</answer>", "lenient").correct, f"{style}: {last!r}"
+        check = check_reasoning(job.item, text)
+        assert not check.hallucinated, f"{style}: {check.detail}"
+        assert all(f"Video {k}" in think for k in (1, 2)), think
+        seen[job.item.answer] += 1
+    assert seen == {"more": 20, "less": 20, "similar": 20}

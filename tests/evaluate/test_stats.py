@@ -97,7 +97,8 @@ def test_paper_average_is_not_item_weighted() -> None:
 
 @pytest.mark.parametrize(("task", "kwargs", "expected"), [
     ("TFA-hardness", {}, 1 / 3), ("TFA-bumpiness", {}, 1 / 3), ("TFA-combined", {"n_attributes": 4}, 1 / 81),
-    ("TFA-combined", {"n_attributes": 3}, 1 / 27), ("SFD", {}, 0.5), ("SOI", {}, 1 / 3), ("OSC", {}, 1 / 6),
+    ("TFA-combined", {"n_attributes": 3}, 1 / 27), ("SFD", {}, 0.5), ("PC", {}, 1 / 3), ("SOI", {}, 1 / 3),
+    ("OSC", {}, 1 / 6),
     ("TSA", {}, 0.5), ("RFOR", {}, 0.5), ("OCSE", {"n_options": 5}, 0.2), ("OCSE", {"n_options": 3}, 1 / 3),
 ])
 def test_chance_level(task: str, kwargs: dict, expected: float) -> None:

@@ -26,7 +26,7 @@ from tacreasoner.tasks.vocab import PHYSICLEAR, VTV150K
 
 VTV_TASKS = ["TFA-hardness", "TFA-protrusion", "TFA-elasticity", "TFA-friction", "TFA-combined", "SFD", "SOI", "OSC",
              "TSA", "RFOR", "OCSE"]
-PHYS_TASKS = ["TFA-hardness", "TFA-roughness", "TFA-bumpiness", "TFA-combined", "SFD", "SOI", "OSC", "TSA"]
+PHYS_TASKS = ["TFA-hardness", "TFA-roughness", "TFA-bumpiness", "TFA-combined", "SFD", "PC", "SOI", "OSC", "TSA"]
 ORD = ("first", "second", "third")
 N = 300
 N_RFOR = 150
@@ -92,9 +92,10 @@ def test_items_validate_with_unique_ids_and_expected_counts(items: list[QAItem])
         assert len(set(item.objects)) == len(item.objects), "multi-video items must show distinct objects"
 
 
-def test_every_template_is_used(items: list[QAItem]) -> None:
+def test_every_template_is_used(items: list[QAItem], clips: list[TactileClip]) -> None:
     bank = load_templates()
-    used = Counter(i.meta["template"] for i in items)
+    pc = build_items(clips, tasks=["PC"], vocabulary="physiclear", split="test", seed=0, per_task=30)
+    used = Counter(i.meta["template"] for i in [*items, *pc])
     for kind, templates in bank.items():
         for t in templates:
             assert used[t.id] > 0, f"template {t.id} ({kind}) never used"
@@ -135,6 +136,28 @@ def test_sfd_gold_recomputed_and_balanced(items: list[QAItem], by_id: dict) -> N
     assert_balanced([i.answer for i in sfd if i.gold["kind"] == "yesno"], {"yes", "no"})
     assert_balanced([i.gold["direction"] for i in sfd], {"more", "less"})
     assert len({i.gold["attribute"] for i in sfd}) == len(VTV150K)
+
+
+def test_pc_gold_recomputed_and_balanced(clips: list[TactileClip], by_id: dict) -> None:
+    pc = build_items(clips, tasks=["PC"], vocabulary="physiclear", split="val", seed=3, per_task=240)
+    assert len(pc) == 240
+    for item in pc:
+        a = item.gold["attribute"]
+        r0, r1 = (rank(by_id[v.clip_id], a, "physiclear") for v in item.videos)
+        assert item.answer == ("more" if r0 > r1 else "less" if r0 < r1 else "similar")
+        assert item.meta["ranks"] == [r0, r1] and a in item.question
+        assert item.objects[0] != item.objects[1], "a similar pair is two objects, never one object twice"
+    assert_balanced([i.answer for i in pc], {"more", "less", "similar"}, 0.3)
+    assert_balanced([i.gold["attribute"] for i in pc], set(PHYSICLEAR), 0.3)
+    again = build_items(clips, tasks=["PC"], vocabulary="physiclear", split="val", seed=3, per_task=240)
+    assert [i.to_dict() for i in again] == [i.to_dict() for i in pc]
+
+
+def test_pc_without_two_ranks_builds_nothing_and_says_why(clips: list[TactileClip]) -> None:
+    one_level = [c for c in clips if all(c.labels["physiclear"][a] == 1 for a in PHYSICLEAR)]
+    report = build_items_with_report(one_level, tasks=["PC"], vocabulary="physiclear", split="val", seed=0)[1]
+    assert report.counts == {"PC": 0}
+    assert "no attribute has two different ranks" in report.warnings[0]
 
 
 def test_soi_unique_extreme_and_balanced_positions(items: list[QAItem], by_id: dict) -> None:

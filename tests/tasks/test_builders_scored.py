@@ -19,10 +19,12 @@ def _wrap(answer: str) -> str:
     return f"<think>Reasoning about the contact.</think><answer>{answer}</answer>"
 
 
-@pytest.mark.parametrize("vocabulary", ["vtv150k", "physiclear"])
-def test_gold_accepted_and_perturbed_rejected_for_every_task(vocabulary: str) -> None:
+@pytest.mark.parametrize(("source", "vocabulary"), [("sim", "vtv150k"), ("sim", "physiclear"),
+                                                    ("physiclear", "physiclear")])
+def test_gold_accepted_and_perturbed_rejected_for_every_task(source: str, vocabulary: str) -> None:
     clips = make_clips(n_objects=40, repeats=3, seed=2)
-    tasks = tasks_for("sim", vocabulary, has_phases=True, has_fruit=vocabulary == "vtv150k")
+    tasks = tasks_for(source, vocabulary, has_phases=True, has_fruit=vocabulary == "vtv150k")
+    assert ("PC" in tasks) == (source == "physiclear")  # Octopi's PC: PhysiCLeAR benchmarks only
     items = build_items(clips, tasks=tasks, vocabulary=vocabulary, split="test", seed=5, per_task=12)
     assert {i.task for i in items} == set(tasks)
     for item in items:
@@ -39,6 +41,8 @@ def test_gold_accepted_and_perturbed_rejected_for_every_task(vocabulary: str) ->
 def test_physiclear_builds_all_its_tasks(tmp_path: Path) -> None:
     summary = build_bench("physiclear", PHYSICLEAR, tmp_path, seed=0)
     expected = set(tasks_for("physiclear", "physiclear", has_phases=False, has_fruit=False))
+    assert expected == {"TFA-hardness", "TFA-roughness", "TFA-bumpiness", "TFA-combined", "SFD", "PC", "SOI", "OSC",
+                        "TSA"}
     assert set(summary.counts["train"]) == expected - {"TSA"}
     assert set(summary.counts["val"]) == expected
     info, val = load_bench(tmp_path, "val")

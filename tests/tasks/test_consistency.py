@@ -29,8 +29,9 @@ from tacreasoner.tasks.vocab import get_vocabulary
 OSC_OPTIONS = ["fake banana", "kitchen sponge", "real apple"]
 TSA_OPTIONS = ["the first object", "the second object"]
 OCSE_OPTIONS = ["pressing", "holding", "sliding", "rotating", "releasing"]
-KIND = {"TFA-combined": "tfa_combined", "SOI": "soi", "OSC": "osc", "TSA": "tsa", "RFOR": "rfor", "OCSE": "ocse"}
-N_VIDEOS = {"SFD": 2, "SOI": 3, "OSC": 3, "TSA": 2}
+KIND = {"TFA-combined": "tfa_combined", "PC": "pc", "SOI": "soi", "OSC": "osc", "TSA": "tsa", "RFOR": "rfor",
+        "OCSE": "ocse"}
+N_VIDEOS = {"SFD": 2, "PC": 2, "SOI": 3, "OSC": 3, "TSA": 2}
 
 
 def item(task: str, gold: dict, *, vocabulary: str = "vtv150k", template: int = 0) -> QAItem:
@@ -116,6 +117,14 @@ CASES: dict[str, tuple[QAItem, str, str]] = {
         item("SFD", {"kind": "yesno", "value": False, "attribute": "hardness", "direction": "more"}, template=2),
         "Video 1 is yielding (level 0) and Video 2 comes across as slightly yielding (level 1). More hardness "
         "means a higher level; 0 is lower than 1, so no: the first object does not have more hardness.", "yes"),
+    "PC-more": (
+        item("PC", {"attribute": "hardness", "relation": "more"}, vocabulary="physiclear"),
+        "Answer: more. Over the press and the hold, Video 1 feels firm and Video 2 is yielding. So the first "
+        "object has more hardness than the second: more.", "less"),
+    "PC-similar": (
+        item("PC", {"attribute": "roughness", "relation": "similar"}, vocabulary="physiclear", template=1),
+        "Stage by stage the two videos read alike for roughness. Therefore their roughness is about the same: "
+        "similar.", "more"),
     "SOI": (
         item("SOI", {"index": 2, "attribute": "friction", "direction": "least"}, template=1),
         "Judging by the press, the slide and the release, Video 1 feels tacky, Video 2 comes across as tacky and "
@@ -230,6 +239,8 @@ def test_attributes_videos_and_analogies_are_not_flagged(key: str, think: str) -
     # the opposite comparative: "the first is softer" is consistent with "the second is harder"
     ("SFD-which", "Video 1 yields and Video 2 stays rigid, so the first object is softer than the second."),
     ("SOI", "Video 1 feels tacky, so the first object is the roughest of the three."),
+    # PC's relation is the first object's: a conclusion about the second is not read
+    ("PC-more", "Video 2 yields under the press, so the second object is softer."),
     # yes/no conclusions are read only when they lead with yes/no
     ("SFD-yesno", "So no slip occurs in Video 1, and the first object feels firm."),
     # negated conclusions (but RFOR's) are not read; comparisons with a level are cut at "than"
@@ -331,6 +342,8 @@ def _other(qa: QAItem) -> str:
         gold["value"] = not gold["value"]
     elif qa.task in ("SFD", "SOI"):
         gold["index"] = (gold["index"] + 1) % len(qa.videos)
+    elif qa.task == "PC":
+        gold["relation"] = "less" if gold["relation"] != "less" else "more"
     elif qa.task == "OSC":
         a = gold["assignment"]
         gold["assignment"] = [a[1], a[2], a[0]]

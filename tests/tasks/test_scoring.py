@@ -72,6 +72,12 @@ CASES = {
     "SFD-yesno": Case(make_item("SFD", {"kind": "yesno", "value": True, "attribute": "hardness", "direction": "more"},
                                 "yes", n_videos=2),
                       "no", "Yes, the first object is harder."),
+    "PC": Case(make_item("PC", {"attribute": "hardness", "relation": "less"}, "less", n_videos=2,
+                         vocabulary="physiclear"),
+               "similar", "The first object is softer than the second."),
+    "PC-similar": Case(make_item("PC", {"attribute": "bumpiness", "relation": "similar"}, "similar", n_videos=2,
+                                 vocabulary="physiclear"),
+                       "more", "Both have the same bumpiness."),
     "SOI": Case(make_item("SOI", {"index": 2, "attribute": "friction", "direction": "most"}, "the third object",
                           n_videos=3),
                 "the first object", "Video 3 has the strongest friction."),
@@ -317,3 +323,25 @@ def test_bad_gold_names_the_item() -> None:
         score_item(item, wrap("moderately deformable"))
     with pytest.raises(ValueError, match="mode"):
         score_item(CASES["RFOR"].item, "fake", "fuzzy")
+
+
+@pytest.mark.parametrize(("answer", "relation"), [
+    ("more", "more"), ("It has more bumpiness.", "more"), ("The first object is bumpier.", "more"),
+    ("less bumpy than the second", "less"), ("lower", "less"), ("about the same", "similar"),
+    ("equal bumpiness", "similar"), ("more or less", None), ("more, or maybe less", None), ("no idea", None),
+])
+def test_pc_lenient_reads_one_relation_or_none(answer: str, relation: str | None) -> None:
+    from tacreasoner.tasks.scoring import parse_relation
+    from tacreasoner.tasks.vocab import PHYSICLEAR
+
+    assert parse_relation(answer, PHYSICLEAR["bumpiness"], lenient=True) == relation
+    assert parse_relation(answer, PHYSICLEAR["bumpiness"]) == (answer if answer in ("more", "less") else None)
+
+
+def test_pc_gold_outside_the_three_relations_names_the_item() -> None:
+    item = CASES["PC"].item
+    bad = make_item("PC", {"attribute": "hardness", "relation": "same"}, "less", n_videos=2, vocabulary="physiclear")
+    with pytest.raises(ValueError, match="'PC-physiclear' \\(PC\\): gold 'relation' must be one of"):
+        score_item(bad, wrap("less"))
+    assert score_item(item, wrap("less")).correct
+

@@ -58,7 +58,7 @@ ATTRIBUTE_STAGES: dict[str, tuple[str, ...]] = {
     "roughness": ("press", "hold", ACTION),
     "bumpiness": ("press", "hold", ACTION),
 }
-"""Stages whose cues carry each attribute (the step indicators of TFA, SFD, SOI and TSA)."""
+"""Stages whose cues carry each attribute (the step indicators of TFA, SFD, PC, SOI and TSA)."""
 RFOR_STAGES = ("press", "hold", "release")
 """Real fruit creeps during the hold and leaves a residual dent after release; fakes do not."""
 STATE_TO_PHASE = {state: phase for phase, state in PHASE_TO_STATE.items()}
@@ -90,7 +90,7 @@ def stages_for(item: QAItem, videos: Sequence[VideoCues] | None = None) -> list[
         wanted = set(RFOR_STAGES)
     elif task.startswith("TFA-"):
         wanted = set(_attribute_stages(item, task.removeprefix("TFA-")))
-    elif task in ("SFD", "SOI"):
+    elif task in ("SFD", "PC", "SOI"):
         wanted = set(_attribute_stages(item, item.gold.get("attribute")))
     elif task == "TSA":
         needs = item.gold.get("needs")

@@ -21,7 +21,7 @@ from typing import Any
 from tacreasoner.cot import cuetext
 from tacreasoner.cot.schema import STAGES, CoTJob, Prompt, VideoCues
 from tacreasoner.tasks.answers import COMBINED_SEP
-from tacreasoner.tasks.schema import CONTACT_STATES, ORDINALS, PLACEHOLDER, TASKS, QAItem
+from tacreasoner.tasks.schema import CONTACT_STATES, ORDINALS, PC_RELATIONS, PLACEHOLDER, TASKS, QAItem
 from tacreasoner.tasks.vocab import get_vocabulary
 from tacreasoner.yamlfile import read_yaml
 
@@ -289,6 +289,8 @@ def _task_values(item: QAItem, prompts: PromptSet) -> dict[str, str]:
         values["choices"] = _quoted(item.options or CONTACT_STATES)
     if item.task in ("SFD", "SOI"):
         values["choices"] = _quoted([f"the {o} object" for o in ORDINALS[:len(item.videos)]])
+    if item.task == "PC":
+        values["choices"] = _quoted(list(PC_RELATIONS))
     return values
 
 

@@ -50,6 +50,7 @@ _SECTION_SLOTS: dict[str, frozenset[str]] = {
     "value_styles": frozenset({"value", "n"}),
     "tipping": frozenset({"cue_label", "values", "attribute"}),
     "close_call": frozenset({"attribute", "winner", "comparative", "superlative"}),
+    "pc_similar": frozenset({"attribute"}),
     "verdict": frozenset({"winner", "comparative", "superlative"}),
     "against": frozenset({"attribute"}),
     "neutral": frozenset({"attribute"}),
@@ -76,8 +77,9 @@ _REQUIRED_SLOTS = {"connectors": frozenset({"reading"}), "context_connectors": f
                    **{s: _SECTION_SLOTS[s] for s in ("brief_stages", "brief_feel", "brief_profile", "brief_match",
                                                              "level_feel")}}
 _DATA_SECTIONS = frozenset({"version", "typical", "evidence", "stage_cue", "ocse_checks"})
-CONCLUSION_KEYS = ("TFA", "TFA-combined", "SFD-which", "SFD-yes", "SFD-no", "SOI", "OSC", "RFOR", "OCSE")
-OPENER_KEYS = ("TFA", "TFA-combined", "SFD", "SOI", "OSC", "RFOR", "OCSE")
+CONCLUSION_KEYS = ("TFA", "TFA-combined", "SFD-which", "SFD-yes", "SFD-no", "PC-more", "PC-less", "PC-similar", "SOI",
+                   "OSC", "RFOR", "OCSE")
+OPENER_KEYS = ("TFA", "TFA-combined", "SFD", "PC", "SOI", "OSC", "RFOR", "OCSE")
 LEVEL_RULE_KEYS = ("SFD-which", "SFD-yesno", "SOI")
 
 
@@ -196,7 +198,7 @@ def _check_data(bank: RulesBank) -> None:
                     and check[1] in ("<", ">") and isinstance(check[2], (int, float))):
                 raise RulesBankError(f"{bank.where('ocse_checks', state, i)}: expected [cue, '<'|'>', number], "
                                      f"got {check!r}")
-    for section, keys in (("conclusions", CONCLUSION_KEYS), ("openers", OPENER_KEYS), ("verdict", ("SFD", "SOI")),
+    for section, keys in (("conclusions", CONCLUSION_KEYS), ("openers", OPENER_KEYS), ("verdict", ("SFD", "PC", "SOI")),
                           ("level_rule", LEVEL_RULE_KEYS)):
         lacking = [k for k in keys if k not in d[section]]
         if lacking:

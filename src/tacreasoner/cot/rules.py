@@ -254,10 +254,17 @@ def _winner(gold: Mapping[str, Any]) -> int:
 
 
 def _comparison(item: QAItem, n: int) -> tuple[list[tuple[int, int]], dict[str, str]]:
-    """(higher, lower) video pairs the gold ordering asserts, and the wording slots of an SFD/SOI item."""
+    """(higher, lower) video pairs the gold ordering asserts, and the wording slots of an SFD/PC/SOI item (PC
+    "similar" asserts no pair and names no winner)."""
     gold = item.gold
     attribute = gold["attribute"]
     attr = get_vocabulary(item.vocabulary)[attribute]
+    if item.task == "PC":
+        ctx = {"attribute": attribute, "comparative": attr.more}
+        if gold["relation"] == "similar":
+            return [], ctx
+        hi = 0 if gold["relation"] == "more" else 1
+        return [(hi, 1 - hi)], ctx | {"winner": f"Video {hi + 1}"}
     if item.task == "SFD":
         winner = _winner(gold)
         more = gold["direction"] == "more"
@@ -334,6 +341,8 @@ class RulesTeacher:
             body, ctx = self._tfa(w, job)
         elif task in ("SFD", "SOI"):
             body, ctx = self._compare(w, job)
+        elif task == "PC":
+            body, ctx = self._pc(w, job)
         elif task == "OSC":
             body, ctx = self._osc(w, job)
         elif task == "RFOR":
@@ -354,6 +363,8 @@ class RulesTeacher:
             key = "TFA"
         elif key == "SFD":
             key = "SFD-which" if item.gold["kind"] == "which" else ("SFD-yes" if item.gold["value"] else "SFD-no")
+        elif key == "PC":
+            key = f"PC-{item.gold['relation']}"
         slots = {**ctx, "answer": item.answer}
         text = w.pick(("conclusions", key), slots, "conclusion", lambda s: _concludes(item, _sentence(s)))
         return _sentence(text) if text else _sentence(f"So the answer is {item.answer}")
@@ -502,7 +513,7 @@ class RulesTeacher:
             real = bool(item.gold["real"])
             ctx = {"fruit": str(item.gold.get("fruit", "fruit"))}
             return self._brief_stages(w, job, lambda stage: ("rfor_readings", stage, real), ctx), ctx
-        if task in ("SFD", "SOI"):
+        if task in ("SFD", "PC", "SOI"):
             return self._brief_compare(w, job)
         if task == "OSC":
             return self._brief_osc(w, job)
@@ -604,6 +615,18 @@ class RulesTeacher:
             body.append(self._compare_stage(w, job, stage, evidence.get(_stage_key(stage), []), pairs, ctx))
         if not any(tag.endswith(".suffix") and tid.startswith("verdict") for tag, tid in w.used):
             body.append(self._tipping(w, job, evidence, pairs, ctx))
+        return body, ctx
+
+    def _pc(self, w: _Writer, job: CoTJob) -> tuple[list[str], dict[str, str]]:
+        """PC: the stages side by side as for SFD; "similar" judges no stage and says the cues are close."""
+        pairs, ctx = _comparison(job.item, len(job.videos))
+        if pairs:
+            return self._compare(w, job)
+        evidence = self.bank["evidence"].get(ctx["attribute"], {})
+        body = [self._compare_stage(w, job, stage, evidence.get(_stage_key(stage), []), [], ctx, judge=False)
+                for stage in job.stages]
+        body.append(w.pick(("pc_similar",), ctx, "similar", w.ok)
+                    or f"the two videos' {ctx['attribute']} cues stay close to each other")
         return body, ctx
 
     def _tipping(self, w: _Writer, job: CoTJob, evidence: Mapping[str, Sequence], pairs: Sequence[tuple[int, int]],

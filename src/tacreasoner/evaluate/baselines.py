@@ -16,7 +16,7 @@ import numpy as np
 
 from tacreasoner.jsonl import write_jsonl
 from tacreasoner.tasks.answers import render_answer
-from tacreasoner.tasks.schema import CONTACT_STATES, ORDINALS, QAItem
+from tacreasoner.tasks.schema import CONTACT_STATES, ORDINALS, PC_RELATIONS, QAItem
 from tacreasoner.tasks.vocab import get_vocabulary
 
 BASELINES = ("random", "majority")
@@ -36,6 +36,8 @@ def answer_space(item: QAItem) -> list[str]:
         if item.gold["kind"] == "yesno":
             return ["yes", "no"]
         return [f"the {o} object" for o in ORDINALS[:2]]
+    if task == "PC":
+        return list(PC_RELATIONS)
     if task == "SOI":
         return [f"the {o} object" for o in ORDINALS[:3]]
     if task == "OSC":

@@ -100,15 +100,15 @@ def paper_average(per_task: Mapping[str, float]) -> float:
     return sum(values) / len(values)
 
 
-_CHANCE = {"SFD": 1 / 2, "SOI": 1 / 3, "OSC": 1 / 6, "TSA": 1 / 2, "RFOR": 1 / 2}
+_CHANCE = {"SFD": 1 / 2, "PC": 1 / 3, "SOI": 1 / 3, "OSC": 1 / 6, "TSA": 1 / 2, "RFOR": 1 / 2}
 
 
 def chance_level(task: str, n_options: int | None = None, n_attributes: int | None = None) -> float:
     """Accuracy of uniform guessing among valid answers.
 
     TFA-<attr>: 1/3 (three levels); TFA-combined: (1/3)^n_attributes (4 for VTV-150K, 3 for PhysiCLeAR;
-    pass ``n_attributes``); SFD 1/2; SOI 1/3; OSC 1/6 (permutations of three); TSA 1/2; RFOR 1/2;
-    OCSE 1/n_options (the listed contact states).
+    pass ``n_attributes``); SFD 1/2; PC 1/3 (more, less, similar); SOI 1/3; OSC 1/6 (permutations of three);
+    TSA 1/2; RFOR 1/2; OCSE 1/n_options (the listed contact states).
     """
     if task == "TFA-combined":
         if not n_attributes or n_attributes < 1:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from tacreasoner.tasks.schema import CONTACT_STATES, ORDINALS, TASKS
+from tacreasoner.tasks.schema import CONTACT_STATES, ORDINALS, PC_RELATIONS, TASKS
 from tacreasoner.tasks.vocab import get_vocabulary
 
 LETTERS = "ABC"
@@ -78,6 +78,13 @@ def _comparison(task: str, gold: Mapping, vocabulary: str) -> str:
     return "yes" if _need(gold, "value", bool, task) else "no"
 
 
+def _pc(task: str, gold: Mapping, vocabulary: str) -> str:
+    attribute = _need(gold, "attribute", str, task)
+    if attribute not in get_vocabulary(vocabulary):
+        raise ValueError(f"{task}: attribute {attribute!r} is not in the {vocabulary} vocabulary")
+    return str(_need(gold, "relation", PC_RELATIONS, task))
+
+
 def _osc(task: str, gold: Mapping) -> str:
     assignment = gold.get("assignment")
     if not isinstance(assignment, list) or sorted(assignment) != [0, 1, 2]:
@@ -101,6 +108,8 @@ def render_answer(task: str, gold: Mapping, vocabulary: str = "vtv150k") -> str:
         return _tfa(task, gold, vocabulary)
     if task in ("SFD", "SOI"):
         return _comparison(task, gold, vocabulary)
+    if task == "PC":
+        return _pc(task, gold, vocabulary)
     if task == "OSC":
         return _osc(task, gold)
     if task == "TSA":

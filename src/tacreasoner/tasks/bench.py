@@ -32,9 +32,11 @@ BENCH_VERSION = 1
 
 def tasks_for(source: str, vocabulary: str, has_phases: bool, has_fruit: bool) -> list[str]:
     """The tasks a source supports: TFA for each attribute of its vocabulary, comparisons, and the
-    dynamic tasks only where there are phases (OCSE) or real/fake fruit (RFOR)."""
+    dynamic tasks only where there are phases (OCSE) or real/fake fruit (RFOR). PhysiCLeAR also gets Octopi's
+    three-way property comparison (PC), so its benchmark holds Octopi's whole task set (docs/benchmark.md)."""
     attrs = [f"TFA-{a}" for a in get_vocabulary(vocabulary)]
-    tasks = [t for t in TFA_TASKS if t in attrs] + ["TFA-combined", "SFD", "SOI", "OSC", "TSA"]
+    comparisons = ["SFD", "PC"] if source == "physiclear" else ["SFD"]
+    tasks = [t for t in TFA_TASKS if t in attrs] + ["TFA-combined", *comparisons, "SOI", "OSC", "TSA"]
     if has_fruit:
         tasks.append("RFOR")
     if has_phases:

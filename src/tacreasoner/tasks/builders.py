@@ -8,7 +8,7 @@
   not change the items of the others.
 - **Balanced**: answer positions, letters, yes/no, real/fake, contact states, attributes, directions
   and templates are drawn from shuffled plans that use every value equally often; multi-video items
-  always show distinct objects and never a tie.
+  always show distinct objects and never a tie (except PC, whose "similar" answer is a tie by design).
 - **Missing labels**: a clip without the labels a task needs is skipped for that task and counted in
   the report (``TaskReport.skipped``).
 - **Nothing to build**: a task that yields no item (or fewer than asked) is *not* an error, because a
@@ -35,7 +35,7 @@ import numpy as np
 from tacreasoner.data.clip import TactileClip
 from tacreasoner.tasks.answers import LETTERS, ordinal_answer, render_answer
 from tacreasoner.tasks.scenarios import Scenario, load_scenarios, scenarios_for
-from tacreasoner.tasks.schema import CONTACT_STATES, PHASE_TO_STATE, SPLITS, TASKS, QAItem, VideoRef
+from tacreasoner.tasks.schema import CONTACT_STATES, PC_RELATIONS, PHASE_TO_STATE, SPLITS, TASKS, QAItem, VideoRef
 from tacreasoner.tasks.templating import Template, load_templates
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
@@ -336,6 +336,37 @@ def _sfd(clips: Sequence[TactileClip], n: int | None, ctx: _Context) -> list[QAI
     return ctx.run(plan, attempt, "pair of different objects with different ranks")
 
 
+def _pc(clips: Sequence[TactileClip], n: int | None, ctx: _Context) -> list[QAItem]:
+    """PC (Octopi's property comparison): more, less or similar X in the first object than in the second, each
+    relation equally often; "similar" pairs two different objects of the same level."""
+    labelled = _labelled_any(clips, ctx)
+    groups = {a: _rank_groups(labelled, ctx.vocabulary, a) for a in ctx.vocab}
+    attrs = [a for a, g in groups.items() if len(g) >= 2]
+    if not attrs:
+        ctx.report.notes.append("no attribute has two different ranks among the clips")
+        return ctx.finish()
+    cyclers = {a: _Cycler([c for g in groups[a].values() for c in g], ctx.rng) for a in attrs}
+    plan = ctx.with_templates(_plan(len(labelled) if n is None else n, ctx.rng, attribute=attrs,
+                                    relation=PC_RELATIONS), "pc")
+    beyond = {"more": lambda r, ra: r < ra, "less": lambda r, ra: r > ra, "similar": lambda r, ra: r == ra}
+
+    def attempt(p: dict) -> bool:
+        a_name, relation = p["attribute"], p["relation"]
+        a = cyclers[a_name].next()
+        ra = rank_of(a, ctx.vocabulary, a_name)
+        pool = [c for r, g in groups[a_name].items() if beyond[relation](r, ra) for c in g
+                if c.object_id != a.object_id]
+        if not pool:
+            return False
+        b = _pick(pool, ctx.rng)
+        gold = {"attribute": a_name, "relation": relation}
+        ranks = [ra, rank_of(b, ctx.vocabulary, a_name)]
+        return ctx.add((a.clip_id, b.clip_id, a_name), p["template"], [a, b], gold, {"attribute": a_name},
+                       meta={"attribute": a_name, "ranks": ranks})
+
+    return ctx.run(plan, attempt, "pair of different objects in that relation")
+
+
 def _extreme_pools(groups: Mapping[int, list[TactileClip]]) -> dict[str, tuple[list, dict[int, list]]]:
     """Per direction: clips that can be a unique extreme, and per rank the clips strictly beyond it.
 
@@ -546,7 +577,8 @@ def _ocse(clips: Sequence[TactileClip], n: int | None, ctx: _Context) -> list[QA
 
 
 _BUILDERS: dict[str, Callable[[Sequence[TactileClip], int | None, _Context], list[QAItem]]] = {
-    "TFA-combined": _tfa_combined, "SFD": _sfd, "SOI": _soi, "OSC": _osc, "TSA": _tsa, "RFOR": _rfor, "OCSE": _ocse,
+    "TFA-combined": _tfa_combined, "SFD": _sfd, "PC": _pc, "SOI": _soi, "OSC": _osc, "TSA": _tsa, "RFOR": _rfor,
+    "OCSE": _ocse,
 }
 
 
@@ -654,6 +686,12 @@ def build_sfd(clips: Sequence[TactileClip], *, vocabulary: str = "vtv150k", spli
               n: int | None = None, source: str = "") -> list[QAItem]:
     """SFD: which of two objects is more/less X, or a yes/no comparison; never a tie."""
     return _one("SFD", clips, vocabulary, split, seed, n, source)
+
+
+def build_pc(clips: Sequence[TactileClip], *, vocabulary: str = "physiclear", split: str = "test", seed: int = 0,
+             n: int | None = None, source: str = "") -> list[QAItem]:
+    """PC: does the first object have more, less or similar X than the second (Octopi's property comparison)."""
+    return _one("PC", clips, vocabulary, split, seed, n, source)
 
 
 def build_soi(clips: Sequence[TactileClip], *, vocabulary: str = "vtv150k", split: str = "test", seed: int = 0,

@@ -20,7 +20,8 @@ reasoning (the ``<think>`` text, :func:`~tacreasoner.tasks.extract.split_reasoni
 Both are conservative, because a false alarm makes the rate useless: negated conclusions are not read (RFOR's
 parser understands negation, so RFOR's are); a yes/no conclusion must start with yes/no ("So no: …", not
 "so no slip"); SFD/SOI conclusions that use the opposite comparative ("so the first is softer" when the
-question asks for the harder) are not read; TSA conclusions must speak of choice or suitability; OCSE
+question asks for the harder) are not read; PC conclusions that speak of the second object ("so the second is
+softer") are not read (PC's relation is the first object's); TSA conclusions must speak of choice or suitability; OCSE
 conclusions with a temporal word ("after the press") are not read.
 
 A reply is *checkable* when it has reasoning and at least one check found something to judge: a known object
@@ -222,6 +223,10 @@ _OCSE_TEMPORAL = re.compile(r"\b(?:after|before|then|next|previous\w*|following|
                             r"transition\w*|preced\w*|prior)\b", re.IGNORECASE)
 
 
+_PC_OTHER = re.compile(r"\b(?:second|2nd|(?:video|object|clip)\s*2)\b", re.IGNORECASE)
+"""PC reads a relation as the first object's: a clause about the second object is left unread."""
+
+
 def _clauses(think: str) -> list[str]:
     """Conclusion clauses, last sentence first; within a sentence, from its last marker to its first."""
     sentences = [s.strip() for s in _SENTENCE_END.split(think) if s.strip()]
@@ -270,6 +275,8 @@ def _readable_clause(item: QAItem, clause: str) -> str | None:
         return None
     if item.task in ("SFD", "SOI"):
         return None if _opposite_direction(item, text) in (True, None) else text
+    if item.task == "PC" and _PC_OTHER.search(text):  # "the second is softer" means "more": not read
+        return None
     if item.task == "TSA" and (_TSA_AGAINST.search(text) or not (_TSA_CHOICE.search(text) or _TSA_BARE.match(text))):
         return None
     if item.task == "OCSE" and _OCSE_TEMPORAL.search(text):

@@ -12,13 +12,16 @@ Gold conventions per task (``gold`` dict) and the gold answer text (``answer``):
 | ``TFA-combined`` | 1 | ``{"levels": {attribute: 0..2, …}}`` (vocabulary order) | ``hardness: …; protrusion: …; …`` |
 | ``SFD`` | 2 | ``{"kind": "which", "index": 0|1, "attribute": a, "direction": d}`` | ``the first/second object`` |
 | ``SFD`` | 2 | ``{"kind": "yesno", "value": bool, "attribute": a, "direction": …}`` | ``yes`` / ``no`` |
+| ``PC`` | 2 | ``{"attribute": a, "relation": "more"|"less"|"similar"}`` | ``more`` / ``less`` / ``similar`` |
 | ``SOI`` | 3 | ``{"index": 0..2, "attribute": a, "direction": "most"|"least"}`` | ``the first/second/third object`` |
 | ``OSC`` | 3 | ``{"assignment": [k0, k1, k2]}``: video v ↔ option letter ``"ABC"[k_v]`` | ``1-B, 2-A, 3-C`` |
 | ``TSA`` | 2 | ``{"letter": "A"|"B", "scenario": id, "needs": {attribute: "high"|"low"}}`` | ``A`` / ``B`` |
 | ``RFOR`` | 1 | ``{"real": bool, "fruit": name}`` | ``real`` / ``fake`` |
 | ``OCSE`` | 1 segment | ``{"state": s}`` with s in ``CONTACT_STATES`` | the state phrase, e.g. ``sliding`` |
 
-SFD's direction ``d`` is ``"more"`` or ``"less"`` (the comparative asked about).
+SFD's direction ``d`` is ``"more"`` or ``"less"`` (the comparative asked about). PC is Octopi's property
+comparison (PhysiCLeAR benchmarks only): the first object has more, less or the same level ("similar") of the
+attribute than the second; its pairs may share a level, SFD's never do.
 
 Multiple-choice items list their choices in ``options`` (OSC: object names; TSA: the two
 candidates; OCSE: contact states), in the order the question shows them.
@@ -35,7 +38,9 @@ from tacreasoner.fields import reject_unknown_fields
 PLACEHOLDER = "<tactile>"
 TFA_TASKS = ("TFA-hardness", "TFA-protrusion", "TFA-elasticity", "TFA-friction", "TFA-roughness",
              "TFA-bumpiness", "TFA-combined")
-TASKS = (*TFA_TASKS, "SFD", "SOI", "OSC", "TSA", "RFOR", "OCSE")
+TASKS = (*TFA_TASKS, "SFD", "PC", "SOI", "OSC", "TSA", "RFOR", "OCSE")
+PC_RELATIONS = ("more", "less", "similar")
+"""PC answers: the first object's level of the attribute against the second's (higher, lower, equal)."""
 ORDINALS = ("first", "second", "third")
 CONTACT_STATES = ("pressing", "holding", "sliding", "rotating", "releasing")
 """OCSE answer phrases; simulator phases map press→pressing, hold→holding, slide→sliding, …"""

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from tacreasoner.tasks.extract import MODES, Mode, extract_answer
-from tacreasoner.tasks.schema import CONTACT_STATES, ORDINALS, QAItem
+from tacreasoner.tasks.schema import CONTACT_STATES, ORDINALS, PC_RELATIONS, QAItem
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
 __all__ = [
@@ -41,6 +41,7 @@ __all__ = [
     "parse_level",
     "parse_ordinal",
     "parse_real_fake",
+    "parse_relation",
     "parse_yes_no",
     "score_item",
     "score_predictions",
@@ -192,6 +193,31 @@ def parse_ordinal(text: str, lenient: bool = False) -> int | None:
         if hits:
             return _single(hits)
     return None
+
+
+_RELATION_WORDS = {
+    "more": "more", "higher": "more", "greater": "more", "stronger": "more",
+    "less": "less", "lower": "less", "fewer": "less", "weaker": "less",
+    "similar": "similar", "the same": "similar", "same": "similar", "equal": "similar", "comparable": "similar",
+}
+
+
+def parse_relation(text: str, attribute: Attribute | None = None, lenient: bool = False) -> str | None:
+    """``more`` / ``less`` / ``similar`` (PC: the first object against the second).
+
+    Strict: exactly one of the three words. Lenient: every relation word in the text ("higher", "the same", …,
+    and the attribute's own comparatives, "harder" / "softer") must say the same thing; "more or less" is read
+    as nothing."""
+    canon = _canon(text)
+    if canon in PC_RELATIONS:
+        return canon
+    if not lenient:
+        return None
+    words = dict(_RELATION_WORDS)
+    if attribute is not None:
+        words |= {attribute.more: "more", attribute.less: "less"}
+    loose = re.sub(r"\bmore or less\b", " ", _loose(text))
+    return _single([v for _, v in _find_phrases(loose, words)])
 
 
 _YES_NO = re.compile(r"\b(yes|no)\b")
@@ -448,6 +474,15 @@ def _score_sfd(item: QAItem, answer: str, lenient: bool) -> ItemScore:
     return _result(parse_yes_no(answer, lenient), gold, {"kind": "yesno"})
 
 
+def _score_pc(item: QAItem, answer: str, lenient: bool) -> ItemScore:
+    gold = _gold(item, "relation", PC_RELATIONS)
+    name = _gold(item, "attribute")
+    vocab = get_vocabulary(item.vocabulary)
+    if name not in vocab:
+        raise ValueError(f"item {item.id!r} (PC): attribute {name!r} is not in vocabulary {item.vocabulary!r}")
+    return _result(parse_relation(answer, vocab[name], lenient), gold, {"attribute": name})
+
+
 def _score_osc(item: QAItem, answer: str, lenient: bool) -> ItemScore:
     gold = list(_gold(item, "assignment"))
     if len(gold) != 3 or any(k not in (0, 1, 2) for k in gold):
@@ -479,6 +514,7 @@ def _score_ocse(item: QAItem, answer: str, lenient: bool) -> ItemScore:
 _SCORERS: dict[str, Callable[[QAItem, str, bool], ItemScore]] = {
     "TFA-combined": _score_combined,
     "SFD": _score_sfd,
+    "PC": _score_pc,
     "SOI": _score_ordinal,
     "OSC": _score_osc,
     "TSA": _score_tsa,

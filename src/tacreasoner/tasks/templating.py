@@ -41,6 +41,7 @@ KINDS: dict[str, TemplateKind] = {
     "tfa_combined": _kind(1, {"attributes", "format"}, {"attributes"}, "TFA-combined"),
     "sfd_which": _kind(2, {"attribute", "comparative"}, {"comparative"}, "SFD"),
     "sfd_yesno": _kind(2, {"attribute", "comparative"}, {"comparative"}, "SFD"),
+    "pc": _kind(2, {"attribute"}, {"attribute"}, "PC"),
     "soi": _kind(3, {"attribute", "superlative"}, {"superlative"}, "SOI"),
     "osc": _kind(3, {"options"}, {"options"}, "OSC"),
     "tsa": _kind(2, {"scenario", "options"}, {"scenario", "options"}, "TSA"),
