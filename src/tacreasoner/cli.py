@@ -857,6 +857,54 @@ def evaluate_cmd(
     console.print(f"report: {report_dir / 'report.md'}; predictions: {preds}")
 
 
+@app.command("evaluate-physiclear")
+@cli_errors
+def evaluate_physiclear_cmd(
+    model: Annotated[list[Path], typer.Option("--model", help="Trained model directory; repeat for several seeds "
+                                                              "(mean ± std).")],
+    data: Annotated[Path, typer.Option("--data", help="A PhysiCLeAR-shaped folder: labels.json + videos/, any split "
+                                                      "names (e.g. only 'test').")],
+    out: Annotated[Path, typer.Option("--out", help="Output directory: bench/, predictions/, report.md, octopi.md.")],
+    split: Annotated[str | None, typer.Option("--split", help="The labels.json split to score (default: test, or "
+                                                              "the only labelled split).", show_default=False)] = None,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the items built from the folder.")] = 0,
+    per_task: Annotated[int | None, typer.Option("--per-task", help="Items per task (default: each clip once).",
+                                                 show_default=False)] = None,
+    mode: Mode = "strict",
+    batch_size: Annotated[int, typer.Option("--batch-size", help="Prompts per generate call.")] = 32,
+    max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply.")] = 256,
+) -> None:
+    """Score saved models on a PhysiCLeAR-shaped folder: its items built deterministically, Octopi's table out."""
+    _needs_train_extra("evaluate-physiclear")
+    _at_least_one("--batch-size", batch_size)
+    if per_task is not None:
+        _at_least_one("--per-task", per_task)
+    from tacreasoner.evaluate.octopi import octopi_markdown, octopi_table
+    from tacreasoner.evaluate.report import evaluate
+    from tacreasoner.tasks.bench import build_folder_bench
+
+    for path in model:
+        if not (path / "config.json").is_file():
+            raise FileNotFoundError(f"--model {path}: not a saved model (no config.json)")
+    summary, name = build_folder_bench(data, out / "bench", split=split, seed=seed, per_task=per_task)
+    console.print(f"{summary.out_dir}: {sum(summary.counts[name].values())} items over {summary.objects[name]} "
+                  f"objects ({', '.join(f'{t} {n}' for t, n in summary.counts[name].items())})")
+    paths = []  # model k answers into <out>/model<k>/predictions/<split>.jsonl (resumable)
+    for k, model_dir in enumerate(model):
+        items, preds = _predict_split(model_dir, summary.out_dir, name, out / f"model{k}", batch_size, max_new_tokens,
+                                      None)
+        paths.append(preds)
+    report = evaluate(items, paths, mode, out)
+    folder_split = json.loads((summary.out_dir / "bench.json").read_text())["folder_split"]
+    table = octopi_table(report)
+    text = octopi_markdown(table, label=", ".join(str(m) for m in model), split=f"{data} · {folder_split}")
+    (out / "octopi.md").write_text(f"# Octopi's PhysiCLeAR table\n\n{text}")
+    (out / "octopi.json").write_text(json.dumps({"data": str(data), "split": folder_split, "models": [str(m) for m in
+                                                 model], "mode": mode, "seed": seed, "table": table}, indent=2))
+    console.print(text)
+    console.print(f"report: {out / 'report.md'}; Octopi's table: {out / 'octopi.md'}")
+
+
 def _predict_split(model_dir: Path, bench: Path, split: str, out: Path, batch_size: int, max_new_tokens: int,
                    limit: int | None, touch: str = "real", touch_seed: int = 0) -> tuple[list, Path]:
     from tacreasoner.evaluate.predict import load_trained, predict_items, predictions_path

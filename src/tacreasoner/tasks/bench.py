@@ -219,6 +219,50 @@ def build_bench(source: str, data: str | Path, out_dir: str | Path, *, seed: int
     return BenchSummary(out, source, counts, objects, notes)
 
 
+def build_folder_bench(data: str | Path, out_dir: str | Path, *, split: str | None = None, seed: int = 0,
+                       per_task: int | None = None) -> tuple[BenchSummary, str]:
+    """A benchmark of one split of a PhysiCLeAR-shaped folder (``labels.json`` + ``videos/``): the objects whose
+    ``split`` is ``split`` (any name; default: ``test`` if present, else the only labelled split) become the
+    benchmark's evaluation split, items built deterministically for ``seed``. Returns the summary and the
+    benchmark's split name (``val``/``test`` as in the folder, ``test`` for any other name).
+
+    Made for scoring a saved model on a copy nobody here has seen (Octopi's test objects): a listed video that is
+    missing or unreadable is an error naming the file, never a silently smaller benchmark."""
+    from tacreasoner.data import readers
+    from tacreasoner.tasks.formats import write_jsonl
+
+    data, out = Path(data), Path(out_dir)
+    clips = [c for c in readers.read_physiclear(data, on_error="raise") if c.labels.get("physiclear")]
+    labels = data / "labels.json" if data.is_dir() else data
+    present = sorted({c.split for c in clips})
+    if not present:
+        raise ValueError(f"{labels}: no object with hardness/roughness/bumpiness labels")
+    if split is None:
+        if "test" not in present and len(present) > 1:
+            raise ValueError(f"{labels}: several labelled splits ({', '.join(present)}) and none is 'test': "
+                             "choose one with --split")
+        split = "test" if "test" in present else present[0]
+    wanted = split.strip().lower()
+    chosen = [c for c in clips if c.split == wanted]
+    if not chosen:
+        raise ValueError(f"{labels}: no labelled object has split {split!r}; splits present: {', '.join(present)}")
+    name = wanted if wanted in ("val", "test") else "test"
+    tasks = tasks_for("physiclear", "physiclear", has_phases=False, has_fruit=False)
+    notes: list[str] = []
+    items = _build_split(chosen, tasks, "physiclear", name, seed, per_task, "physiclear", notes)
+    _relative_paths(items, data)
+    out.mkdir(parents=True, exist_ok=True)
+    write_jsonl(items, out / f"{name}.jsonl")
+    counts = {name: dict(sorted(Counter(i.task for i in items).items()))}
+    objects = {name: len({c.object_id for c in chosen})}
+    info = {"version": BENCH_VERSION, "source": "physiclear", "name": f"PhysiCLeAR-shaped folder, split {wanted!r}",
+            "data": str(data.resolve()), "video_root": str(data.resolve()), "vocabulary": "physiclear",
+            "seed": seed, "folder_split": wanted, "heldout_sensor": None, "sensors": ["mini"], "tasks": tasks,
+            "splits": {c.object_id: name for c in chosen}, "counts": counts, "objects": objects, "notes": notes}
+    atomic_write_text(out / BENCH_INFO, json.dumps(info, indent=2))
+    return BenchSummary(out, "physiclear", counts, objects, notes), name
+
+
 def load_bench(bench_dir: str | Path, split: str = "test") -> tuple[dict, list[QAItem]]:
     """``bench.json`` and the items of one split (``test_heldout_sensor`` for the held-out sensor file)."""
     from tacreasoner.tasks.formats import read_jsonl

@@ -1,0 +1,159 @@
+"""Scoring a PhysiCLeAR-shaped folder nobody here has seen (Octopi's test objects): a small copy made here from the
+shared videos, holding only a ``test`` split; the items built from it, the Octopi-shaped table, and bad folders."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+import torch
+from typer.testing import CliRunner
+
+from tacreasoner.data.video import VideoError
+from tacreasoner.evaluate.octopi import OCTOPI_COLUMNS, octopi_table
+from tacreasoner.tasks.bench import build_folder_bench, load_bench
+from tacreasoner.tasks.scoring import score_item
+
+SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "physiclear"
+OBJECTS = {  # name → (hardness, roughness, bumpiness), as in the shared labels.json
+    "feather_duster_handle": (2, 0, 0), "steel_wool": (0, 2, 1), "tsa_lock_numbers": (2, 2, 1), "denim": (1, 1, 1),
+    "millet": (1, 2, 1),
+}
+ENCODER = {"num_frames": 4, "image_size": [32, 32], "patch_size": 8, "hidden_size": 32, "num_layers": 1,
+           "num_heads": 2, "temporal_hidden_size": 32, "temporal_tokens": 2, "fusion_heads": 2, "tokens_per_video": 3}
+
+pytestmark = pytest.mark.skipif(not (SHARED / "labels.json").is_file(),
+                                reason="PhysiCLeAR is not beside the checkout (../shared/data/physiclear)")
+
+
+def make_folder(root: Path, split: str = "test", videos: int = 2) -> Path:
+    """labels.json + videos/ with the OBJECTS, all in one split, copied from the shared dataset."""
+    (root / "videos").mkdir(parents=True)
+    objects = {}
+    for name, (h, r, b) in OBJECTS.items():
+        files = [f"videos/{name}_{k}.mov" for k in range(videos)]
+        for rel in files:
+            shutil.copy(SHARED / rel, root / rel)
+        objects[name] = {"split": split, "name": name.replace("_", " "), "hardness": h, "roughness": r,
+                         "bumpiness": b, "videos": files}
+    (root / "labels.json").write_text(json.dumps({"dataset": "a test copy", "objects": objects}))
+    return root
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return make_folder(tmp_path_factory.mktemp("physiclear_copy"))
+
+
+def test_a_test_only_folder_builds_octopis_task_set_deterministically(folder: Path, tmp_path: Path) -> None:
+    summary, split = build_folder_bench(folder, tmp_path / "a")
+    assert split == "test" and summary.objects == {"test": 5}
+    assert set(summary.counts["test"]) == {"TFA-hardness", "TFA-roughness", "TFA-bumpiness", "TFA-combined", "SFD",
+                                           "PC", "SOI", "OSC", "TSA"}
+    info, items = load_bench(tmp_path / "a", "test")
+    assert info["folder_split"] == "test" and info["video_root"] == str(folder.resolve())
+    assert all(score_item(i, f"<answer>{i.answer}</answer>").correct for i in items)
+    assert all((folder / v.path).is_file() for i in items for v in i.videos)
+    build_folder_bench(folder, tmp_path / "b")
+    assert (tmp_path / "a" / "test.jsonl").read_text() == (tmp_path / "b" / "test.jsonl").read_text()
+    summary, _ = build_folder_bench(folder, tmp_path / "c", per_task=7, seed=1)
+    assert set(summary.counts["test"].values()) == {7}
+
+
+def test_any_split_name_is_scored_as_test_and_the_choice_is_explained(tmp_path: Path) -> None:
+    heldout = make_folder(tmp_path / "heldout", split="Heldout")
+    _, split = build_folder_bench(heldout, tmp_path / "bench")
+    assert split == "test" and json.loads((tmp_path / "bench" / "bench.json").read_text())["folder_split"] == "heldout"
+    labels = json.loads((heldout / "labels.json").read_text())
+    labels["objects"]["denim"]["split"] = "val"
+    (heldout / "labels.json").write_text(json.dumps(labels))
+    with pytest.raises(ValueError, match=r"labels.json: several labelled splits \(heldout, val\) and none is 'test'"):
+        build_folder_bench(heldout, tmp_path / "x")
+    with pytest.raises(ValueError, match=r"no labelled object has split 'test'; splits present: heldout, val"):
+        build_folder_bench(heldout, tmp_path / "x", split="test")
+    assert build_folder_bench(heldout, tmp_path / "v", split="val")[1] == "val"
+
+
+@pytest.mark.parametrize(("damage", "message"), [
+    (lambda d: (d / "labels.json").unlink(), r"labels.json: no PhysiCLeAR labels.json here"),
+    (lambda d: (d / "labels.json").write_text("{not json"), r"labels.json: not valid JSON"),
+    (lambda d: _edit(d, lambda o: o["denim"].pop("roughness")), r"object 'denim' \(split 'test'\): missing field"),
+    (lambda d: _edit(d, lambda o: o["denim"].update(hardness=5)), r"'denim'.*hardness"),
+    (lambda d: _edit(d, lambda o: o["denim"].update(videos="denim_0.mov")), r"object 'denim', field 'videos'"),
+    (lambda d: (d / "videos" / "denim_1.mov").unlink(), r"denim_1.mov"),
+    (lambda d: (d / "videos" / "denim_1.mov").write_bytes(b"not a video"), r"denim_1.mov"),
+])
+def test_bad_folders_are_one_clear_error_naming_file_and_field(tmp_path: Path, damage, message: str) -> None:
+    bad = make_folder(tmp_path / "bad")
+    damage(bad)
+    with pytest.raises((ValueError, FileNotFoundError, VideoError), match=message) as caught:
+        build_folder_bench(bad, tmp_path / "bench")
+    assert "\n" not in str(caught.value)
+    assert not (tmp_path / "bench" / "test.jsonl").exists(), "nothing written for a bad folder"
+
+
+def _edit(folder: Path, change) -> None:
+    labels = json.loads((folder / "labels.json").read_text())
+    change(labels["objects"])
+    (folder / "labels.json").write_text(json.dumps(labels))
+
+
+@pytest.fixture(scope="module")
+def model_dir(folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """An untrained tiny model saved as `train` saves one (its answers are noise; the command is what is tested)."""
+    from transformers import Qwen2Config, Qwen2ForCausalLM
+
+    from tacreasoner.model.build import build_model, save_model
+    from tacreasoner.model.tokenizer import train_tokenizer
+
+    root = tmp_path_factory.mktemp("physiclear_model")
+    build_folder_bench(folder, root / "bench")
+    texts = [f"{i.question} {i.answer}" for i in load_bench(root / "bench", "test")[1]]
+    tokenizer = train_tokenizer(texts, vocab_size=400)
+    config = Qwen2Config(vocab_size=len(tokenizer), hidden_size=64, num_hidden_layers=2, num_attention_heads=4,
+                         num_key_value_heads=2, intermediate_size=128, max_position_embeddings=1024,
+                         tie_word_embeddings=True, eos_token_id=tokenizer.eos_token_id,
+                         pad_token_id=tokenizer.pad_token_id)
+    torch.manual_seed(0)
+    Qwen2ForCausalLM(config).save_pretrained(root / "llm")
+    tokenizer.save_pretrained(root / "llm")
+    model, processor = build_model(root / "llm", encoder=ENCODER)
+    return save_model(model, processor, root / "model")
+
+
+def test_evaluate_physiclear_writes_the_octopi_table(folder: Path, model_dir: Path, tmp_path: Path) -> None:
+    from tacreasoner.cli import app
+
+    runner = CliRunner()
+    out = tmp_path / "eval"
+    args = ["evaluate-physiclear", "--model", str(model_dir), "--model", str(model_dir), "--data", str(folder),
+            "--out", str(out), "--max-new-tokens", "2", "--per-task", "3"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    saved = json.loads((out / "octopi.json").read_text())
+    assert saved["split"] == "test" and len(saved["models"]) == 2
+    assert [c for c, _ in OCTOPI_COLUMNS] == list(saved["table"])
+    assert all(saved["table"][c]["n"] == 3 and saved["table"][c]["runs"] == 2 for c in saved["table"])
+    assert saved["table"]["PC"]["chance"] == pytest.approx(1 / 3) and saved["table"]["POM"]["task"] == "OSC"
+    md = (out / "octopi.md").read_text()
+    assert "| hardness | roughness | bumpiness | combined | PC | PSS | POM | PSR |" in md and "Octopi-13b" in md
+    assert (out / "report.md").is_file()
+    answered = [(out / f"model{k}" / "predictions" / "test.jsonl").read_text() for k in (0, 1)]
+    assert answered[0] == answered[1] and len(answered[0].splitlines()) == 27
+    again = runner.invoke(app, args)  # resumable: the answers are kept, not redone
+    assert again.exit_code == 0 and (out / "model0" / "predictions" / "test.jsonl").read_text() == answered[0]
+
+    result = runner.invoke(app, [*args[:5], "--data", str(tmp_path / "nowhere"), "--out", str(out)])
+    assert result.exit_code == 2 and "labels.json" in result.output and "Traceback" not in result.output
+
+
+def test_octopi_table_leaves_absent_tasks_empty() -> None:
+    from tacreasoner.evaluate.report import summarize
+
+    records = [{"id": f"h{k}", "task": "TFA-hardness", "correct": k < 3, "parse_failed": False, "chance": 1 / 3}
+               for k in range(4)]
+    table = octopi_table(summarize({"run": records}))
+    assert table["hardness"]["accuracy"] == 0.75 and table["hardness"]["n"] == 4
+    assert table["PC"] is None and table["PSR"] is None
