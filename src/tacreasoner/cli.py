@@ -541,6 +541,10 @@ def build_bench_cmd(
         "--heldout-sensor", help="Sensor kept out of train/val/test (sim; default: the last of several).")] = None,
     per_task: Annotated[int | None, typer.Option("--per-task", help="Items per task and split (default: "
                                                                     "about one per clip).")] = None,
+    vocabulary: Annotated[str | None, typer.Option(
+        "--vocabulary", help="Answer phrases: the source's own by default; physiclear for simulated clips asks them "
+                             "in PhysiCLeAR's words and tasks (to train a real-data model beside them).",
+        show_default=False)] = None,
 ) -> None:
     """Build a benchmark directory: object-level splits, QA items per task, bench.json with counts."""
     from tacreasoner.data.readers import default_physiclear_dir
@@ -556,7 +560,7 @@ def build_bench_cmd(
     if not data.exists():
         raise FileNotFoundError(f"{data}: no such directory")
     summary = build_bench(source, data, out, seed=seed, ranks=ranks, heldout_sensor=heldout_sensor,
-                          per_task=per_task)
+                          per_task=per_task, vocabulary=vocabulary)
     console.print(summary.table())
     for note in summary.notes:
         console.print(f"note: {note}")

@@ -65,6 +65,22 @@ def test_same_seed_same_benchmark(small_sim_dataset: Path, bench: Path, tmp_path
         assert (tmp_path / name).read_text() == (bench / name).read_text()
 
 
+def test_simulated_clips_in_physiclear_words(small_sim_dataset: Path, bench: Path, tmp_path: Path) -> None:
+    """The same objects and splits, asked in PhysiCLeAR's vocabulary and task set (PC included), for training a
+    real-data model beside simulated clips; the default benchmark is untouched by the option."""
+    build_bench("sim", small_sim_dataset, tmp_path, seed=0, heldout_sensor="digit", vocabulary="physiclear")
+    info = json.loads((tmp_path / BENCH_INFO).read_text())
+    assert info["vocabulary"] == "physiclear" and "PC" in info["tasks"] and "TFA-roughness" in info["tasks"]
+    assert info["splits"] == json.loads((bench / BENCH_INFO).read_text())["splits"]
+    train = load_bench(tmp_path, "train")[1]
+    assert {i.vocabulary for i in train} == {"physiclear"} and all(check_gold(i) is None for i in train)
+    assert "PC" not in json.loads((bench / BENCH_INFO).read_text())["tasks"]
+    with pytest.raises(ValueError, match="vocabulary 'vtv150k' is not available for source 'physiclear'"):
+        build_bench("physiclear", small_sim_dataset, tmp_path / "x", vocabulary="vtv150k")
+    with pytest.raises(ValueError, match="vocabulary 'octopi' is not available for source 'sim'"):
+        build_bench("sim", small_sim_dataset, tmp_path / "y", vocabulary="octopi")
+
+
 def test_bad_requests_are_clear_errors(small_sim_dataset: Path, tmp_path: Path, bench: Path) -> None:
     with pytest.raises(ValueError, match="unknown source"):
         build_bench("octopi", small_sim_dataset, tmp_path)

@@ -24,7 +24,7 @@ def _wrap(answer: str) -> str:
 def test_gold_accepted_and_perturbed_rejected_for_every_task(source: str, vocabulary: str) -> None:
     clips = make_clips(n_objects=40, repeats=3, seed=2)
     tasks = tasks_for(source, vocabulary, has_phases=True, has_fruit=vocabulary == "vtv150k")
-    assert ("PC" in tasks) == (source == "physiclear")  # Octopi's PC: PhysiCLeAR benchmarks only
+    assert ("PC" in tasks) == (vocabulary == "physiclear")  # Octopi's PC: the PhysiCLeAR vocabulary only
     items = build_items(clips, tasks=tasks, vocabulary=vocabulary, split="test", seed=5, per_task=12)
     assert {i.task for i in items} == set(tasks)
     for item in items:

@@ -84,6 +84,10 @@ def test_an_unknown_key_error_points_at_the_key_itself(tmp_path, text, line) -> 
     ("seed: 0\ndata:\n  repeat:\n    OSC: 2.5\n", ["data.repeat.OSC", "2.5"]),
     ("seed: 0\ndata:\n  repeat: [OSC]\n", ["data.repeat", "mapping"]),
     ("seed: 0\ndata:\n  length_group_batches: 0\n", ["data.length_group_batches", "at least 1"]),
+    ("seed: 0\ndata:\n  extra_benches: [b]\n", ["data.extra_benches", "plain answers only"]),
+    ("seed: 0\ndata:\n  extra_benches: b\n", ["data.extra_benches", "list of strings", "'b'"]),
+    ("seed: 0\ndata:\n  stage2_data: plain\n  extra_benches: [b]\nmodel:\n  encoder:\n    cross_video: 3\n",
+     ["data.extra_benches", "read-out heads"]),
     ("seed: 0\nruntime:\n  mixed_precision: fp8\n", ["runtime.mixed_precision", "'fp8'", "bf16"]),
     ("seed: 0\nruntime:\n  log_with: wandb\n", ["runtime.log_with", "'wandb'", "tensorboard"]),
     ("seed: 0\nruntime:\n  checkpoint_every: 0\n", ["runtime.checkpoint_every"]),
@@ -164,15 +168,23 @@ def test_bad_overrides_are_refused_naming_the_key(tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------------------ shipped configs
 
 
+def test_every_shipped_config_is_tested() -> None:
+    tested = {"tiny-cpu", "qwen2.5-7b", "qwen2.5-14b", "smollm2-135m", "smollm2-135m-touchcot", "smollm2-135m-cpu",
+              "smollm2-135m-heads-cpu", "physiclear-smollm2-cpu"}
+    training = {p.stem for p in CONFIGS.glob("*.yaml") if not p.stem.startswith("teacher-")}
+    assert training == tested
+
+
 @pytest.mark.parametrize("name", ["tiny-cpu", "qwen2.5-7b", "qwen2.5-14b", "smollm2-135m", "smollm2-135m-touchcot",
-                                  "smollm2-135m-cpu"])
+                                  "smollm2-135m-cpu", "smollm2-135m-heads-cpu", "physiclear-smollm2-cpu"])
 def test_the_shipped_configs_load_check_and_round_trip(name: str) -> None:
     config = load_train_config(CONFIGS / f"{name}.yaml")
     config.check()
     assert TrainConfig.from_dict(config.to_dict()) == config  # what the DDP test hands its workers
 
 
-@pytest.mark.parametrize("name", ["smollm2-135m", "smollm2-135m-touchcot", "smollm2-135m-cpu"])
+@pytest.mark.parametrize("name", ["smollm2-135m", "smollm2-135m-touchcot", "smollm2-135m-cpu",
+                                  "physiclear-smollm2-cpu"])
 def test_the_smollm2_configs_are_the_paper_core_on_the_llm_get_folder(name: str) -> None:
     """No read-out heads, and room for the longest TouchCoT example (234 SmolLM2 tokens)."""
     config = load_train_config(CONFIGS / f"{name}.yaml")
@@ -329,3 +341,18 @@ def test_set_reads_exponent_numbers_without_a_dot_as_floats() -> None:
     assert overrides == {"stage2.lr": 1e-4, "stage1.lr": 2.5, "output_dir": "run1e5", "seed": 3}
     config = load_train_config(CONFIGS / "smollm2-135m.yaml", overrides)
     assert config.stage2.lr == pytest.approx(1e-4) and config.stage1.lr == pytest.approx(2.5)
+
+
+def test_the_heads_and_physiclear_variants_change_only_what_they_say() -> None:
+    """smollm2-135m-heads-cpu: the CPU recipe with the heads on; physiclear-smollm2-cpu: the CPU recipe on
+    PhysiCLeAR's benchmark (plain answers, so no TouchCoT file)."""
+    cpu = load_train_config(CONFIGS / "smollm2-135m-cpu.yaml").to_dict()
+    heads = load_train_config(CONFIGS / "smollm2-135m-heads-cpu.yaml").to_dict()
+    real = load_train_config(CONFIGS / "physiclear-smollm2-cpu.yaml").to_dict()
+    assert heads["model"]["encoder"]["cross_video"] == 3 and heads["model"]["encoder"]["clip_reader"] is True
+    for variant, changed in ((heads, {"output_dir", "model"}), (real, {"output_dir", "data"})):
+        assert {k for k in cpu if cpu[k] != variant[k]} == changed
+    assert {k for k in cpu["model"] if cpu["model"][k] != heads["model"][k]} == {"encoder"}
+    assert {k for k in cpu["data"] if cpu["data"][k] != real["data"][k]} == {"bench", "touchcot", "video_cache"}
+    assert real["data"]["bench"] == "runs/physiclear/bench" and real["data"]["touchcot"] is None
+

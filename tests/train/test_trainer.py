@@ -273,3 +273,25 @@ def test_stage_two_fits_the_clip_reader_on_train_gold_even_on_a_stage_one_model_
     reader = model.projector.clip_reader
     assert model.encoder_config.clip_reader and reader is not None and reader.fitted
     assert bool(reader.readout_weight.abs().sum() > 0) and bool(reader.readings.abs().sum() > 0)
+
+
+def test_extra_benches_join_the_training_examples_in_the_same_vocabulary(inputs, small_sim_dataset, tmp_path) -> None:
+    from tacreasoner.tasks.bench import build_bench
+    from tacreasoner.train.data import load_examples
+
+    extra = tmp_path / "extra"
+    build_bench("sim", small_sim_dataset, extra, seed=1, heldout_sensor="digit")
+    config = tiny_config(inputs, tmp_path / "run", stage1={"steps": 1},
+                         data={"stage2_data": "plain", "extra_benches": [str(extra)]})
+    train_stage(config, 1)
+    run = json.loads((tmp_path / "run" / "stage1" / "run.json").read_text())
+    assert run["examples"] == len(load_examples(1, inputs["bench"])) + len(load_examples(1, extra))
+
+    other = tmp_path / "other_words"
+    build_bench("sim", small_sim_dataset, other, seed=1, heldout_sensor="digit", vocabulary="physiclear")
+    config = tiny_config(inputs, tmp_path / "run2", data={"stage2_data": "plain", "extra_benches": [str(other)]})
+    with pytest.raises(ValueError, match=r"other_words answers in the physiclear vocabulary, data.bench in vtv150k"):
+        train_stage(config, 1)
+    config = tiny_config(inputs, tmp_path / "run3", data={"stage2_data": "plain", "extra_benches": ["nowhere"]})
+    with pytest.raises(FileNotFoundError, match=r"data\.extra_benches: nowhere is not a benchmark directory"):
+        train_stage(config, 1)

@@ -32,10 +32,11 @@ BENCH_VERSION = 1
 
 def tasks_for(source: str, vocabulary: str, has_phases: bool, has_fruit: bool) -> list[str]:
     """The tasks a source supports: TFA for each attribute of its vocabulary, comparisons, and the
-    dynamic tasks only where there are phases (OCSE) or real/fake fruit (RFOR). PhysiCLeAR also gets Octopi's
-    three-way property comparison (PC), so its benchmark holds Octopi's whole task set (docs/benchmark.md)."""
+    dynamic tasks only where there are phases (OCSE) or real/fake fruit (RFOR). The PhysiCLeAR vocabulary also gets
+    Octopi's three-way property comparison (PC), so its benchmarks hold Octopi's whole task set (docs/benchmark.md).
+    ``source`` is kept for callers; what a benchmark asks depends on its vocabulary and its clips."""
     attrs = [f"TFA-{a}" for a in get_vocabulary(vocabulary)]
-    comparisons = ["SFD", "PC"] if source == "physiclear" else ["SFD"]
+    comparisons = ["SFD", "PC"] if vocabulary == "physiclear" else ["SFD"]
     tasks = [t for t in TFA_TASKS if t in attrs] + ["TFA-combined", *comparisons, "SOI", "OSC", "TSA"]
     if has_fruit:
         tasks.append("RFOR")
@@ -146,16 +147,29 @@ def _assign_splits(clips: Sequence[TactileClip], seed: int, fractions: tuple[flo
 
 def build_bench(source: str, data: str | Path, out_dir: str | Path, *, seed: int = 0, ranks: str | Path | None = None,
                 heldout_sensor: str | None = None, per_task: int | None = None,
-                fractions: tuple[float, float, float] = (0.7, 0.15, 0.15)) -> BenchSummary:
-    """Write a benchmark directory; returns what was written (counts per split and task)."""
+                fractions: tuple[float, float, float] = (0.7, 0.15, 0.15),
+                vocabulary: str | None = None) -> BenchSummary:
+    """Write a benchmark directory; returns what was written (counts per split and task).
+
+    ``vocabulary``: the answer phrases, by default the source's own (VTV-150K's for simulated clips). Simulated
+    clips carry PhysiCLeAR's labels too, so ``source="sim", vocabulary="physiclear"`` asks them in PhysiCLeAR's
+    words and tasks: the simulated data a real-data model trains on beside (or instead of) PhysiCLeAR."""
     from tacreasoner.data.splits import check_no_leakage
     from tacreasoner.tasks.formats import write_jsonl
 
     data, out = Path(data), Path(out_dir)
+    if source not in SOURCES:
+        raise ValueError(f"unknown source {source!r}; choose from {', '.join(SOURCES)}")
+    native = "physiclear" if source == "physiclear" else "vtv150k"
+    if vocabulary is None:
+        vocabulary = native
+    elif vocabulary != native and not (source == "sim" and vocabulary == "physiclear"):
+        raise ValueError(f"vocabulary {vocabulary!r} is not available for source {source!r} (it has {native!r} "
+                         f"labels{'; simulated clips also have physiclear ones' if source == 'sim' else ''})")
+    get_vocabulary(vocabulary)
     clips, notes = load_source(source, data, Path(ranks) if ranks else None)
     if not clips:
         raise ValueError(f"{data}: no labelled clips found for source {source!r}")
-    vocabulary = "physiclear" if source == "physiclear" else "vtv150k"
     sensors = sorted({c.sensor for c in clips})
     held = None
     if source == "sim":
@@ -202,7 +216,8 @@ def build_bench(source: str, data: str | Path, out_dir: str | Path, *, seed: int
     info = {
         "version": BENCH_VERSION,
         "source": source,
-        "name": "DynTAC-Sim-Bench (simulated; not the paper's DynTAC-Bench)" if source == "sim" else source,
+        "name": (("DynTAC-Sim-Bench (simulated; not the paper's DynTAC-Bench)" if vocabulary == "vtv150k" else
+                  f"DynTAC-Sim clips in {vocabulary} vocabulary") if source == "sim" else source),
         "data": str(data.resolve()),
         "video_root": str(data.resolve()),
         "vocabulary": vocabulary,

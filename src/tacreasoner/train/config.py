@@ -71,6 +71,10 @@ class ModelSettings:
 class DataSettings:
     bench: str = "runs/quickstart/bench"
     """Benchmark directory (``build-bench``): Stage I description data comes from its train split."""
+    extra_benches: list[str] = field(default_factory=list)
+    """More benchmark directories whose train splits join ``bench``'s, with plain answers in both stages (e.g.
+    simulated clips asked in PhysiCLeAR's words beside PhysiCLeAR: ``build-bench --source sim --vocabulary
+    physiclear``). Each must use ``bench``'s vocabulary; not with TouchCoT or the read-out heads."""
     touchcot: str | None = "runs/quickstart/touchcot/touchcot/touchcot_train.jsonl"
     """TouchCoT training JSONL (``build-cot``) for Stage II."""
     stage2_data: str = "touchcot"
@@ -123,6 +127,11 @@ class DataSettings:
             for task, times in self.repeat.items():
                 if not isinstance(times, int) or isinstance(times, bool) or times < 1:
                     raise ValueError(f"data.repeat.{task} must be a whole number ≥ 1, got {times!r}")
+        if not isinstance(self.extra_benches, list) or not all(isinstance(b, str) and b for b in self.extra_benches):
+            raise ValueError(f"data.extra_benches must be a list of benchmark directories, got {self.extra_benches!r}")
+        if self.extra_benches and self.stage2_data != "plain":
+            raise ValueError("data.extra_benches give plain answers only: set data.stage2_data: plain (their items "
+                             "have no TouchCoT reasoning)")
         if self.tasks is not None:
             _check_task_names(self.tasks, "data.tasks")
             if "TSA" in self.tasks:
@@ -241,6 +250,10 @@ class TrainConfig:
     def check(self) -> None:
         self.model.check()
         self.data.check()
+        encoder = self.model.encoder
+        if self.data.extra_benches and (encoder.get("cross_video") or encoder.get("clip_reader")):
+            raise ValueError("data.extra_benches: the read-out heads (model.encoder.cross_video, clip_reader) are "
+                             "fitted on data.bench's train split only; switch them off to mix benchmarks")
         self.stage1.check("stage1")
         self.stage2.check("stage2")
         self.runtime.check()

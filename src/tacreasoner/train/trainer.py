@@ -89,6 +89,15 @@ def check_inputs(config: TrainConfig, stage: int) -> None:
     if not (bench / "bench.json").is_file():
         raise FileNotFoundError(f"data.bench: {bench} is not a benchmark directory (no bench.json; run "
                                 f"`tacreasoner build-bench`)")
+    vocabulary = json.loads((bench / "bench.json").read_text()).get("vocabulary")
+    for extra in config.data.extra_benches:
+        info_path = Path(extra) / "bench.json"
+        if not info_path.is_file():
+            raise FileNotFoundError(f"data.extra_benches: {extra} is not a benchmark directory (no bench.json)")
+        theirs = json.loads(info_path.read_text()).get("vocabulary")
+        if theirs != vocabulary:
+            raise ValueError(f"data.extra_benches: {extra} answers in the {theirs} vocabulary, data.bench in "
+                             f"{vocabulary}: build it with --vocabulary {vocabulary}")
     touchcot = config.data.touchcot
     if stage == 2 and config.data.stage2_data == "touchcot" and not (touchcot and Path(touchcot).is_file()):
         raise FileNotFoundError(f"data.touchcot: {touchcot} does not exist (run `tacreasoner build-cot`, or set "
@@ -244,6 +253,10 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
                              stage2_data=config.data.stage2_data, tasks=config.data.tasks,
                              max_items=config.data.max_items, video_readings=config.data.stage1_video_readings,
                              comparisons=config.data.stage1_comparisons)
+    for extra in config.data.extra_benches:  # plain answers (checked), videos under each benchmark's own root
+        examples += load_examples(stage, extra, stage2_data="plain", tasks=config.data.tasks,
+                                  video_readings=config.data.stage1_video_readings,
+                                  comparisons=config.data.stage1_comparisons)
     tokenized, dropped = tokenize_examples(processor, examples, config.data.max_length)
     if not tokenized:
         raise ValueError(f"every example is longer than data.max_length={config.data.max_length} tokens")
