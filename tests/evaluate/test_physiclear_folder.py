@@ -8,7 +8,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-import torch
+from evalsetup import save_untrained_model
 from typer.testing import CliRunner
 
 from tacreasoner.data.video import VideoError
@@ -21,8 +21,6 @@ OBJECTS = {  # name → (hardness, roughness, bumpiness), as in the shared label
     "feather_duster_handle": (2, 0, 0), "steel_wool": (0, 2, 1), "tsa_lock_numbers": (2, 2, 1), "denim": (1, 1, 1),
     "millet": (1, 2, 1),
 }
-ENCODER = {"num_frames": 4, "image_size": [32, 32], "patch_size": 8, "hidden_size": 32, "num_layers": 1,
-           "num_heads": 2, "temporal_hidden_size": 32, "temporal_tokens": 2, "fusion_heads": 2, "tokens_per_video": 3}
 
 pytestmark = pytest.mark.skipif(not (SHARED / "labels.json").is_file(),
                                 reason="PhysiCLeAR is not beside the checkout (../shared/data/physiclear)")
@@ -103,24 +101,10 @@ def _edit(folder: Path, change) -> None:
 @pytest.fixture(scope="module")
 def model_dir(folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """An untrained tiny model saved as `train` saves one (its answers are noise; the command is what is tested)."""
-    from transformers import Qwen2Config, Qwen2ForCausalLM
-
-    from tacreasoner.model.build import build_model, save_model
-    from tacreasoner.model.tokenizer import train_tokenizer
-
     root = tmp_path_factory.mktemp("physiclear_model")
     build_folder_bench(folder, root / "bench")
-    texts = [f"{i.question} {i.answer}" for i in load_bench(root / "bench", "test")[1]]
-    tokenizer = train_tokenizer(texts, vocab_size=400)
-    config = Qwen2Config(vocab_size=len(tokenizer), hidden_size=64, num_hidden_layers=2, num_attention_heads=4,
-                         num_key_value_heads=2, intermediate_size=128, max_position_embeddings=1024,
-                         tie_word_embeddings=True, eos_token_id=tokenizer.eos_token_id,
-                         pad_token_id=tokenizer.pad_token_id)
-    torch.manual_seed(0)
-    Qwen2ForCausalLM(config).save_pretrained(root / "llm")
-    tokenizer.save_pretrained(root / "llm")
-    model, processor = build_model(root / "llm", encoder=ENCODER)
-    return save_model(model, processor, root / "model")
+    return save_untrained_model([f"{i.question} {i.answer}" for i in load_bench(root / "bench", "test")[1]], root,
+                                vocab_size=400)
 
 
 def test_evaluate_physiclear_writes_the_octopi_table(folder: Path, model_dir: Path, tmp_path: Path) -> None:

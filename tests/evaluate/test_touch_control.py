@@ -11,6 +11,7 @@ from typing import Any
 
 import pytest
 import torch
+from evalsetup import benchmark_module, save_untrained_model
 from typer.testing import CliRunner
 
 from tacreasoner.evaluate.predict import (
@@ -26,10 +27,6 @@ from tacreasoner.tasks.bench import load_bench
 from tacreasoner.tasks.schema import QAItem
 from tacreasoner.train.data import bench_video_root, video_key
 
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
-ENCODER = {"num_frames": 4, "image_size": [32, 32], "patch_size": 8, "hidden_size": 32, "num_layers": 1,
-           "num_heads": 2, "temporal_hidden_size": 32, "temporal_tokens": 2, "fusion_heads": 2, "tokens_per_video": 3}
-
 
 @pytest.fixture(scope="module")
 def bench(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
@@ -43,23 +40,8 @@ def bench(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> 
 @pytest.fixture(scope="module")
 def model_dir(bench: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """An untrained tiny model saved as `train` saves one: a 2-layer Qwen2 with a BPE tokenizer of the bench's text."""
-    from transformers import Qwen2Config, Qwen2ForCausalLM
-
-    from tacreasoner.model.build import build_model, save_model
-    from tacreasoner.model.tokenizer import train_tokenizer
-
-    root = tmp_path_factory.mktemp("touch_model")
     texts = [f"{i.question} {i.answer}" for i in load_bench(bench, "train")[1]]
-    tokenizer = train_tokenizer(texts, vocab_size=500)
-    config = Qwen2Config(vocab_size=len(tokenizer), hidden_size=64, num_hidden_layers=2, num_attention_heads=4,
-                         num_key_value_heads=2, intermediate_size=128, max_position_embeddings=1024,
-                         tie_word_embeddings=True, eos_token_id=tokenizer.eos_token_id,
-                         pad_token_id=tokenizer.pad_token_id)
-    torch.manual_seed(0)
-    Qwen2ForCausalLM(config).save_pretrained(root / "llm")
-    tokenizer.save_pretrained(root / "llm")
-    model, processor = build_model(root / "llm", encoder=ENCODER)
-    return save_model(model, processor, root / "model")
+    return save_untrained_model(texts, tmp_path_factory.mktemp("touch_model"))
 
 
 @pytest.fixture(scope="module")
@@ -293,12 +275,7 @@ def test_evaluate_touch_flag_keeps_the_modes_side_by_side(model_dir: Path, bench
 
 @pytest.fixture(scope="module")
 def touch_control() -> Any:
-    sys.path.insert(0, str(BENCHMARKS))
-    try:
-        import touch_control
-    finally:
-        sys.path.remove(str(BENCHMARKS))
-    return touch_control
+    return benchmark_module("touch_control")
 
 
 def _records(task: str, correct: list[bool], prefix: str = "") -> list[dict]:

@@ -2,25 +2,17 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 from typing import Any
 
 import pytest
+from evalsetup import benchmark_module
 
 from tacreasoner.tasks.schema import QAItem, VideoRef
-
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
 
 
 @pytest.fixture(scope="module")
 def tsa_ceiling() -> Any:
-    sys.path.insert(0, str(BENCHMARKS))
-    try:
-        import tsa_ceiling
-    finally:
-        sys.path.remove(str(BENCHMARKS))
-    return tsa_ceiling
+    return benchmark_module("tsa_ceiling")
 
 
 def _item(question: str) -> QAItem:

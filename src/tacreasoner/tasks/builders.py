@@ -302,14 +302,24 @@ def _labelled_any(clips: Sequence[TactileClip], ctx: _Context) -> list[TactileCl
 _SFD_ANSWERS = (("which", 0), ("which", 1), ("yesno", True), ("yesno", False))
 
 
-def _sfd(clips: Sequence[TactileClip], n: int | None, ctx: _Context) -> list[QAItem]:
+def _pairwise_pools(clips: Sequence[TactileClip], ctx: _Context
+                    ) -> tuple[list[TactileClip], dict[str, dict[int, list[TactileClip]]], list[str], dict] | None:
+    """SFD/PC: the labelled clips, their rank groups per attribute, the attributes with two ranks or more and a
+    cycler over each one's clips; None (noted) when no attribute has two ranks."""
     labelled = _labelled_any(clips, ctx)
     groups = {a: _rank_groups(labelled, ctx.vocabulary, a) for a in ctx.vocab}
     attrs = [a for a, g in groups.items() if len(g) >= 2]
     if not attrs:
         ctx.report.notes.append("no attribute has two different ranks among the clips")
+        return None
+    return labelled, groups, attrs, {a: _Cycler([c for g in groups[a].values() for c in g], ctx.rng) for a in attrs}
+
+
+def _sfd(clips: Sequence[TactileClip], n: int | None, ctx: _Context) -> list[QAItem]:
+    pools = _pairwise_pools(clips, ctx)
+    if pools is None:
         return ctx.finish()
-    cyclers = {a: _Cycler([c for g in groups[a].values() for c in g], ctx.rng) for a in attrs}
+    labelled, groups, attrs, cyclers = pools
     plan = _plan(len(labelled) if n is None else n, ctx.rng, attribute=attrs, direction=("more", "less"),
                  answer=_SFD_ANSWERS)
     plan = ctx.with_templates(plan, lambda p: f"sfd_{p['answer'][0]}")
@@ -339,13 +349,10 @@ def _sfd(clips: Sequence[TactileClip], n: int | None, ctx: _Context) -> list[QAI
 def _pc(clips: Sequence[TactileClip], n: int | None, ctx: _Context) -> list[QAItem]:
     """PC (Octopi's property comparison): more, less or similar X in the first object than in the second, each
     relation equally often; "similar" pairs two different objects of the same level."""
-    labelled = _labelled_any(clips, ctx)
-    groups = {a: _rank_groups(labelled, ctx.vocabulary, a) for a in ctx.vocab}
-    attrs = [a for a, g in groups.items() if len(g) >= 2]
-    if not attrs:
-        ctx.report.notes.append("no attribute has two different ranks among the clips")
+    pools = _pairwise_pools(clips, ctx)
+    if pools is None:
         return ctx.finish()
-    cyclers = {a: _Cycler([c for g in groups[a].values() for c in g], ctx.rng) for a in attrs}
+    labelled, groups, attrs, cyclers = pools
     plan = ctx.with_templates(_plan(len(labelled) if n is None else n, ctx.rng, attribute=attrs,
                                     relation=PC_RELATIONS), "pc")
     beyond = {"more": lambda r, ra: r < ra, "less": lambda r, ra: r > ra, "similar": lambda r, ra: r == ra}
