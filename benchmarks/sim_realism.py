@@ -4,7 +4,7 @@ Real: PhysiCLeAR GelSight Mini clips from ``../shared/data/physiclear`` (not red
 statistics are written). Simulated: DynTAC-Sim ``mini`` clips of the catalogue + procedural objects.
 For each clip: the no-contact frame (background) and the frame of strongest contact.
 
-    python benchmarks/sim_realism.py [--real-dir ../shared/data/physiclear --clips 60]
+    python benchmarks/sim_realism.py [--real-dir ../shared/data/physiclear --clips 60 --sensors mini mini+physiclear]
 """
 
 from __future__ import annotations
@@ -40,6 +40,9 @@ def _clip_stats(frames: np.ndarray) -> tuple[dict, np.ndarray, np.ndarray]:
         "peak_mean_abs_diff": float(diff.mean()),
         "peak_p99_abs_diff": float(np.percentile(diff, 99)),
         "peak_contact_area": float(s.area[peak]),
+        # the pace of contact (issue 28's second calibration target; its first, the contact signal, is
+        # peak_mean_abs_diff): the mean |frame − previous frame|, grey levels averaged over pixels and colours
+        "frame_change": float(np.abs(np.diff(frames.astype(np.float32), axis=0)).mean()),
     }
     return {k: float(v) for k, v in stats.items()}, frames[0], frames[peak]
 
@@ -55,6 +58,8 @@ def main() -> None:
     ap.add_argument("--real-dir", type=Path, default=DEFAULT_REAL)
     ap.add_argument("--clips", type=int, default=60)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--sensors", nargs="+", default=["mini", "mini+physiclear"],
+                    help="simulated sensor styles, each a column (the first one is drawn in the figure)")
     args = ap.parse_args()
     videos = sorted((args.real_dir / "videos").glob("*.mov"))
     if not videos:
@@ -70,30 +75,43 @@ def main() -> None:
         real_examples.append((path.stem, bg, top))
 
     objects = build_object_set(max(args.clips, 15), args.seed)
-    sim_rows, sim_examples = [], []
-    for i, material in enumerate(objects[: args.clips]):
-        clip = simulate_clip(material, "mini", action_for_repeat(i), seed=(args.seed, i, 0, 0))
-        stats, bg, top = _clip_stats(clip.frames)
-        sim_rows.append(stats)
-        sim_examples.append((material.name, bg, top))
+    sims: dict[str, dict] = {}
+    sim_examples: list = []
+    for sensor in args.sensors:
+        rows = []
+        for i, material in enumerate(objects[: args.clips]):
+            clip = simulate_clip(material, sensor, action_for_repeat(i), seed=(args.seed, i, 0, 0))
+            stats, bg, top = _clip_stats(clip.frames)
+            rows.append(stats)
+            if sensor == args.sensors[0]:
+                sim_examples.append((material.name, bg, top))
+        sims[sensor] = _summary(rows)
 
-    real, sim = _summary(real_rows), _summary(sim_rows)
+    real = _summary(real_rows)
     _figure(real_examples, sim_examples, RESULTS / "sim_realism.png")
     info = stamp()
     payload = {**info, "settings": {k: str(v) for k, v in vars(args).items()}, "n_real": len(real_rows),
-               "n_sim": len(sim_rows), "real": real, "sim": sim}
-    rows = [[k, f"{real[k]['mean']:.1f} ± {real[k]['std']:.1f}", f"{sim[k]['mean']:.1f} ± {sim[k]['std']:.1f}"]
-            for k in real if not k.startswith("peak_contact")]
-    rows.append(["peak_contact_area (fraction)", f"{real['peak_contact_area']['mean']:.3f}",
-                 f"{sim['peak_contact_area']['mean']:.3f}"])
+               "n_sim": len(objects[: args.clips]), "real": real, "sim": sims[args.sensors[0]], "sims": sims}
+
+    def cell(summary: dict, key: str) -> str:
+        if key == "peak_contact_area":
+            return f"{summary[key]['mean']:.3f}"
+        return f"{summary[key]['mean']:.1f} ± {summary[key]['std']:.1f}"
+
+    rows = [[k if k != "peak_contact_area" else "peak_contact_area (fraction)", cell(real, k),
+             *(cell(sims[sensor], k) for sensor in args.sensors)] for k in real]
     md = header_md("DynTAC-Sim realism: simulated GelSight Mini vs real PhysiCLeAR frames", info)
-    md += (f"{len(real_rows)} real PhysiCLeAR clips (25 fps) vs {len(sim_rows)} simulated `mini` clips. "
-           "Statistics of the no-contact frame (bg_*) and of the frame of strongest contact (peak_*), "
-           "in 8-bit grey levels, mean ± std over clips.\n\n")
-    md += md_table(["statistic", "real (PhysiCLeAR)", "simulated (DynTAC-Sim)"], rows)
-    md += ("\n![real vs simulated](sim_realism.png)\n\nWhat is not matched: real clips are hand-held presses of "
-           "everyday objects, many of them small or edged (the imprint covers less of the gel), and the real gel "
-           "shows dust, scratches and a non-uniform coating that the simulator only approximates.\n")
+    md += (f"{len(real_rows)} real PhysiCLeAR clips (25 fps) vs {len(objects[: args.clips])} simulated clips per "
+           "sensor style. Statistics of the no-contact frame (bg_*) and of the frame of strongest contact (peak_*), "
+           "in 8-bit grey levels, mean ± std over clips. peak_mean_abs_diff is the contact signal (the mean "
+           "|frame − first frame| at the clip's strongest contact); frame_change is the clip's mean |frame − previous "
+           "frame|. `mini+physiclear` is the Mini with its contact shading scaled to PhysiCLeAR's contact signal "
+           "(`tacreasoner simulate --sensors mini+physiclear`; src/tacreasoner/sim/sensors.py).\n\n")
+    md += md_table(["statistic", "real (PhysiCLeAR)", *(f"simulated `{sensor}`" for sensor in args.sensors)], rows)
+    md += (f"\n![real vs simulated](sim_realism.png)\n\n(The figure's simulated rows are `{args.sensors[0]}`.) What is "
+           "not matched: real clips are hand-held presses of everyday objects, many of them small or edged (the "
+           "imprint covers less of the gel), and the real gel shows dust, scratches and a non-uniform coating that "
+           "the simulator only approximates.\n")
     publish("sim_realism", payload, md)
 
 

@@ -70,6 +70,12 @@ def test_sensor_specs() -> None:
     assert get_sensor("digit").shape == (320, 240)
     assert get_sensor("digit@60").fps == 60
     assert get_sensor("mini+markers").markers == (7, 9)
-    for bad in ("gelsight9000", "mini@fast", "mini@0", "tac3d+markers", "mini+glitter"):
+    calibrated = get_sensor("mini+physiclear@10")
+    assert calibrated.name == "mini+physiclear@10" and calibrated.fps == 10
+    assert calibrated.shading_gain < get_sensor("mini").shading_gain
+    assert calibrated.background_rgb == get_sensor("mini").background_rgb
+    assert get_sensor("mini+markers+physiclear").markers == (7, 9)
+    for bad in ("gelsight9000", "mini@fast", "mini@0", "tac3d+markers", "mini+glitter", "digit+physiclear",
+                "mini+physiclear+physiclear"):
         with pytest.raises(ValueError):
             get_sensor(bad)

@@ -146,3 +146,23 @@ def test_markers_follow_shear() -> None:
     dark_slide = clip.frames[slide[len(slide) // 2]].mean(-1) < 40
     assert dark_hold.sum() > 100
     assert np.mean(dark_hold != dark_slide) > 0.002
+
+
+def test_physiclear_calibration_weakens_the_contact_signal_but_keeps_the_physics() -> None:
+    """``mini+physiclear`` shows about a third of the Mini's contact signal (PhysiCLeAR's level), and the
+    softer object still spreads a larger imprint at equal force."""
+    default, calibrated = _clip(RUBBER), _clip(RUBBER, sensor="mini+physiclear")
+
+    def contact_signal(clip: Clip) -> float:
+        frames = clip.frames.astype(np.float32)
+        return float(np.abs(frames - frames[0]).mean(axis=(1, 2, 3)).max())
+
+    ratio = contact_signal(calibrated) / contact_signal(default)
+    assert 0.2 < ratio < 0.5
+    np.testing.assert_array_equal(default.trajectory.normal_force, calibrated.trajectory.normal_force)
+    soft, hard = _clip(SOFT, sensor="mini+physiclear"), _clip(HARD, sensor="mini+physiclear")
+    def imprint_area(clip: Clip, i: int) -> float:  # pixels changed by over a tenth of the frame's largest change
+        diff = np.abs(clip.frames[i].astype(np.float32) - clip.frames[0]).mean(-1)
+        return float((diff > 0.1 * diff.max()).mean())
+
+    assert imprint_area(soft, _frame_at_force(soft, 2.5)) > imprint_area(hard, _frame_at_force(hard, 2.5))

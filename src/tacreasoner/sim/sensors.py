@@ -83,18 +83,34 @@ SENSORS: dict[str, SensorStyle] = {
 }
 
 
+# PhysiCLeAR's real Mini clips show about a third of the simulated Mini's contact signal (the largest mean
+# |frame - first frame|: 3.0 against 9.0 grey levels) and of its frame-to-frame change (0.5 against 1.3);
+# benchmarks/sim_realism.py measures both. ``mini+physiclear`` scales the contact shading and the indentation
+# darkening by this factor (fitted with ``sim_realism.py --sensor mini+physiclear``) and leaves the background,
+# lights and noise, which already match, alone.
+PHYSICLEAR_CONTACT_GAIN = 0.33
+
+
 def get_sensor(spec: str) -> SensorStyle:
-    """Look up a sensor by name; ``name@fps`` overrides the frame rate and ``mini+markers`` adds the 7×9 grid."""
+    """Look up a sensor by name; ``name@fps`` overrides the frame rate, ``+markers`` adds the 7×9 marker grid and
+    ``mini+physiclear`` calibrates the contact signal to PhysiCLeAR's real clips (options combine: a+b+c)."""
     text = spec.strip().lower()
     name, _, fps_text = text.partition("@")
-    base_name, _, option = name.partition("+")
+    base_name, *options = name.split("+")
     if base_name not in SENSORS:
-        raise ValueError(f"unknown sensor {spec!r}; known: {', '.join(SENSORS)} (optionally NAME@FPS, mini+markers)")
+        raise ValueError(f"unknown sensor {spec!r}; known: {', '.join(SENSORS)} "
+                         "(optionally NAME@FPS, NAME+markers, mini+physiclear)")
     style = SENSORS[base_name]
-    if option:
-        if option != "markers" or style.markers is not None:
-            raise ValueError(f"unknown sensor option {option!r} in {spec!r}; only 'mini+markers' / 'digit+markers'")
-        style = replace(style, name=f"{style.name}+markers", markers=(7, 9))
+    for option in options:
+        if option == "markers" and style.markers is None:
+            style = replace(style, name=f"{style.name}+markers", markers=(7, 9))
+        elif option == "physiclear" and base_name == "mini" and "physiclear" not in style.name:
+            style = replace(style, name=f"{style.name}+physiclear",
+                            shading_gain=style.shading_gain * PHYSICLEAR_CONTACT_GAIN,
+                            depth_darkening=style.depth_darkening * PHYSICLEAR_CONTACT_GAIN)
+        else:
+            raise ValueError(f"unknown sensor option {option!r} in {spec!r}; only 'mini+markers', "
+                             "'digit+markers' and 'mini+physiclear'")
     if fps_text:
         try:
             fps = float(fps_text)
