@@ -567,6 +567,34 @@ def build_bench_cmd(
     console.print(f"Benchmark written to {out}")
 
 
+Encoder = Annotated[Path, typer.Option("--encoder", help="Frozen appearance encoder that embeds the clips (a "
+                                                         "`tacreasoner pretrain-encoder` folder).")]
+
+
+@app.command("retrieval-bench")
+@cli_errors
+def retrieval_bench_cmd(
+    bench: Bench,
+    encoder: Encoder,
+    out: Annotated[Path, typer.Option("--out", help="New benchmark directory to write.")],
+    k: Annotated[int, typer.Option("--k", help="Neighbours per video.")] = 3,
+    video_cache: Annotated[Path | None, typer.Option(
+        "--video-cache", help="Preprocessed-video folder to reuse and fill (e.g. a training run's).")] = None,
+) -> None:
+    """Retrieval augmentation (Octopi-1.5): a new benchmark whose questions start with each video's k nearest train
+    clips (frozen-encoder CLS cosine, never of the item's own objects) and their level words."""
+    _needs_train_extra("retrieval-bench")
+    _at_least_one("--k", k)
+    from tacreasoner.evaluate.retrieval import retrieval_bench
+
+    summary = retrieval_bench(bench, encoder, out, k, video_cache=video_cache)
+    console.print(f"neighbours from {summary.reference_clips} train clips of {summary.reference_objects} objects; "
+                  f"items: {', '.join(f'{s} {n}' for s, n in summary.items.items())}")
+    for note in summary.notes:
+        console.print(f"note: {note}")
+    console.print(f"Benchmark written to {out}")
+
+
 @app.command()
 @cli_errors
 def baseline(
@@ -877,12 +905,26 @@ def evaluate_physiclear_cmd(
     mode: Mode = "strict",
     batch_size: Annotated[int, typer.Option("--batch-size", help="Prompts per generate call.")] = 32,
     max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply.")] = 256,
+    retrieval: Annotated[Path | None, typer.Option(
+        "--retrieval", help="Retrieval augmentation: the benchmark the model trained on; each question gets its "
+                            "videos' nearest clips of that benchmark's train split (as `retrieval-bench` wrote "
+                            "them).", show_default=False)] = None,
+    encoder: Annotated[Path | None, typer.Option(
+        "--encoder", help="With --retrieval: the appearance encoder that embeds the clips (default: the one the "
+                          "--retrieval benchmark records).", show_default=False)] = None,
+    retrieval_k: Annotated[int | None, typer.Option(
+        "--retrieval-k", help="With --retrieval: neighbours per video (default: the --retrieval benchmark's, else "
+                              "3).", show_default=False)] = None,
 ) -> None:
     """Score saved models on a PhysiCLeAR-shaped folder: its items built deterministically, Octopi's table out."""
     _needs_train_extra("evaluate-physiclear")
     _at_least_one("--batch-size", batch_size)
     if per_task is not None:
         _at_least_one("--per-task", per_task)
+    if retrieval is None and (encoder is not None or retrieval_k is not None):
+        raise ValueError("--encoder and --retrieval-k only go with --retrieval REF_BENCH")
+    if retrieval is not None:
+        encoder, retrieval_k = _retrieval_settings(retrieval, encoder, retrieval_k)
     from tacreasoner.evaluate.octopi import octopi_markdown, octopi_table
     from tacreasoner.evaluate.report import evaluate
     from tacreasoner.tasks.bench import build_folder_bench
@@ -890,7 +932,16 @@ def evaluate_physiclear_cmd(
     for path in model:
         if not (path / "config.json").is_file():
             raise FileNotFoundError(f"--model {path}: not a saved model (no config.json)")
+    _same_settings_as_before(out, {"models": [str(m) for m in model], "data": str(data), "split": split, "seed": seed,
+                                   "per_task": per_task, "retrieval": None if retrieval is None else str(retrieval),
+                                   "encoder": None if encoder is None else str(encoder), "retrieval_k": retrieval_k})
     summary, name = build_folder_bench(data, out / "bench", split=split, seed=seed, per_task=per_task)
+    if retrieval is not None and encoder is not None and retrieval_k is not None:
+        from tacreasoner.evaluate.retrieval import augment_bench
+
+        found = augment_bench(summary.out_dir, retrieval, encoder, retrieval_k)
+        console.print(f"retrieval: {retrieval_k} neighbours per video from {found.reference_clips} train clips of "
+                      f"{found.reference_objects} objects ({retrieval})")
     console.print(f"{summary.out_dir}: {sum(summary.counts[name].values())} items over {summary.objects[name]} "
                   f"objects ({', '.join(f'{t} {n}' for t, n in summary.counts[name].items())})")
     paths = []  # model k answers into <out>/model<k>/predictions/<split>.jsonl (resumable)
@@ -907,6 +958,40 @@ def evaluate_physiclear_cmd(
                                                  model], "mode": mode, "seed": seed, "table": table}, indent=2))
     console.print(text)
     console.print(f"report: {out / 'report.md'}; Octopi's table: {out / 'octopi.md'}")
+
+
+def _same_settings_as_before(out: Path, settings: dict) -> None:
+    """Answers resume by item id, and ids do not change with retrieval or another model: refuse an --out that was
+    answered with other settings rather than silently mixing the two runs' answers."""
+    path = out / "settings.json"
+    if path.is_file():
+        before = json.loads(path.read_text())
+        changed = [key for key in settings if before.get(key) != settings[key]]
+        if changed:
+            raise ValueError(f"{out} holds answers made with other settings ({', '.join(changed)} changed; see "
+                             f"{path}): give a fresh --out")
+    out.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(settings, indent=2) + "\n")
+
+
+def _retrieval_settings(bench: Path, encoder: Path | None, k: int | None) -> tuple[Path, int]:
+    """``evaluate-physiclear --retrieval``'s encoder and k: as given, else as the reference benchmark records them
+    (a retrieval benchmark's bench.json), so the folder is asked the way the model was trained."""
+    info_path = bench / "bench.json"
+    if not info_path.is_file():
+        raise FileNotFoundError(f"--retrieval {bench}: not a benchmark directory (no bench.json)")
+    recorded = json.loads(info_path.read_text()).get("retrieval") or {}
+    if encoder is None:
+        if not recorded.get("encoder"):
+            raise ValueError(f"--retrieval {bench} records no encoder (not made by `retrieval-bench`): give --encoder")
+        encoder = Path(recorded["encoder"])
+    if not (bench / "train.jsonl").is_file():
+        raise FileNotFoundError(f"--retrieval {bench}: no train split to retrieve neighbours from")
+    if not (encoder / "config.json").is_file():
+        raise FileNotFoundError(f"--encoder {encoder}: not an appearance encoder folder (no config.json)")
+    k = k if k is not None else int(recorded.get("k", 3))
+    _at_least_one("--retrieval-k", k)
+    return encoder, k
 
 
 def _predict_split(model_dir: Path, bench: Path, split: str, out: Path, batch_size: int, max_new_tokens: int,

@@ -129,7 +129,7 @@ def test_evaluate_physiclear_writes_the_octopi_table(folder: Path, model_dir: Pa
     again = runner.invoke(app, args)  # resumable: the answers are kept, not redone
     assert again.exit_code == 0 and (out / "model0" / "predictions" / "test.jsonl").read_text() == answered[0]
 
-    result = runner.invoke(app, [*args[:5], "--data", str(tmp_path / "nowhere"), "--out", str(out)])
+    result = runner.invoke(app, [*args[:5], "--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "eval2")])
     assert result.exit_code == 2 and "labels.json" in result.output and "Traceback" not in result.output
 
 
