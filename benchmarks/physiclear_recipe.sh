@@ -8,6 +8,8 @@
 #   sim      the same plus the simulated clips asked in PhysiCLeAR's words (data.extra_benches)
 #   no_dyn   core without the temporal branch (appearance only, VTV-LLM-like)
 #   simonly  the simulated clips only (sim-to-real: never a real clip in Stage I or II)
+#   rag      core with retrieval augmentation (retrieval-bench: each video's 3 nearest train clips and their labels
+#            in the prompt; evaluate-physiclear --retrieval asks val the same way)
 # Each step is skipped when its output exists; its wall time goes to $W/times.tsv when it runs.
 #   VARIANTS="core sim" bash benchmarks/physiclear_recipe.sh [SEED...]     # default: core, seed 0
 set -u
@@ -21,9 +23,12 @@ SEEDS=("$@")
 [ $# -eq 0 ] && SEEDS=(0)
 read -r -a VARIANTS <<< "${VARIANTS:-core}"
 declare -A SETS=([core]="" [sim]="--set data.extra_benches=[$W/sim_bench]"
-                 [no_dyn]="--set model.encoder.use_temporal=false" [simonly]="--set data.bench=$W/sim_bench")
+                 [no_dyn]="--set model.encoder.use_temporal=false" [simonly]="--set data.bench=$W/sim_bench"
+                 [rag]="--set data.bench=$W/rag_bench --set data.max_length=512")
+declare -A EVAL_SETS=([rag]="--retrieval $W/rag_bench")
 declare -A LABEL=([core]="TacReasoner core, SmolLM2-135M" [sim]="TacReasoner core + simulated clips"
-                  [no_dyn]="w/o temporal branch" [simonly]="sim only (no real clip in training)")
+                  [no_dyn]="w/o temporal branch" [simonly]="sim only (no real clip in training)"
+                  [rag]="core + retrieval augmentation (k 3)")
 mkdir -p "$W/logs"
 step() {  # step NAME DONE_FILE COMMAND...: run unless DONE_FILE exists; log its wall time
     local name=$1 done=$2 start
@@ -42,6 +47,8 @@ step encoder runs/quickstart/encoder/model.safetensors \
 step bench "$W/bench/bench.json" $TR build-bench --source physiclear --data "$DATA" --out "$W/bench"
 step sim_bench "$W/sim_bench/bench.json" $TR build-bench --source sim --data runs/quickstart/sim \
     --vocabulary physiclear --out "$W/sim_bench"
+step rag_bench "$W/rag_bench/bench.json" $TR retrieval-bench --bench "$W/bench" --encoder runs/quickstart/encoder \
+    --out "$W/rag_bench" --k 3 --video-cache "$W/video_cache"
 for kind in random majority; do
     step "baseline_$kind" "$W/baselines/$kind/report.json" bash -c \
         "$TR baseline --bench $W/bench --kind $kind --split val --out $W/baselines/$kind/preds/$kind.jsonl && \
@@ -63,8 +70,9 @@ for v in "${VARIANTS[@]}"; do
         done
         models+=(--model "$out/stage2/model")
     done
+    # shellcheck disable=SC2086  # EVAL_SETS holds several words
     step "$v.eval_val" "$W/eval_val/$v/octopi.json" $TR evaluate-physiclear "${models[@]}" --data "$DATA" \
-        --split val --out "$W/eval_val/$v"
+        --split val --out "$W/eval_val/$v" ${EVAL_SETS[$v]:-}
     rows+=(--row "${LABEL[$v]} (${#SEEDS[@]} seed(s))=$W/eval_val/$v")
 done
 $PY benchmarks/physiclear_table.py --split val --name physiclear_val "${rows[@]}" \
