@@ -26,7 +26,7 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -34,6 +34,9 @@ from tacreasoner.jsonl import atomic_write_text
 from tacreasoner.tasks.bench import BENCH_INFO, HELDOUT_SENSOR_FILE, load_bench
 from tacreasoner.tasks.schema import ORDINALS, SPLITS, QAItem
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
+
+if TYPE_CHECKING:
+    from tacreasoner.train.data import VideoKey
 
 __all__ = ["DEFAULT_K", "PREFIX", "REFERENCE_SPLIT", "ReferenceClip", "ReferenceSet", "RetrievalSummary",
            "augment_bench", "augment_items", "build_reference", "embed_videos", "load_encoder", "neighbour_text",
@@ -44,8 +47,6 @@ REFERENCE_SPLIT = "train"
 PREFIX = "Closest clips felt before"
 """How every retrieval text starts (what tells an augmented question from a plain one)."""
 FEATURE = "CLS token of the frozen appearance encoder, L2-normalised; cosine similarity"
-
-VideoKey = tuple[str, int | None, int | None]
 
 
 @dataclass(frozen=True)
