@@ -8,6 +8,7 @@
 #   sim      the same plus the simulated clips asked in PhysiCLeAR's words (data.extra_benches)
 #   no_dyn   core without the temporal branch (appearance only, VTV-LLM-like)
 #   simonly  the simulated clips only (sim-to-real: never a real clip in Stage I or II)
+#   heads    core with the cross-fitted read-out heads (clip reader, comparator, name matcher), beside the plain model
 #   rag      core with retrieval augmentation (retrieval-bench: each video's 3 nearest train clips and their labels
 #            in the prompt; evaluate-physiclear --retrieval asks val the same way)
 # Each step is skipped when its output exists; its wall time goes to $W/times.tsv when it runs.
@@ -24,11 +25,12 @@ SEEDS=("$@")
 read -r -a VARIANTS <<< "${VARIANTS:-core}"
 declare -A SETS=([core]="" [sim]="--set data.extra_benches=[$W/sim_bench]"
                  [no_dyn]="--set model.encoder.use_temporal=false" [simonly]="--set data.bench=$W/sim_bench"
-                 [rag]="--set data.bench=$W/rag_bench --set data.max_length=512")
+                 [rag]="--set data.bench=$W/rag_bench --set data.max_length=512"
+                 [heads]="--set model.encoder.cross_video=3 --set model.encoder.clip_reader=true")
 declare -A EVAL_SETS=([rag]="--retrieval $W/rag_bench")
 declare -A LABEL=([core]="TacReasoner core, SmolLM2-135M" [sim]="TacReasoner core + simulated clips"
                   [no_dyn]="w/o temporal branch" [simonly]="sim only (no real clip in training)"
-                  [rag]="core + retrieval augmentation (k 3)")
+                  [rag]="core + retrieval augmentation (k 3)" [heads]="core + cross-fitted read-out heads")
 mkdir -p "$W/logs"
 step() {  # step NAME DONE_FILE COMMAND...: run unless DONE_FILE exists; log its wall time
     local name=$1 done=$2 start

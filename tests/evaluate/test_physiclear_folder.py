@@ -141,3 +141,14 @@ def test_octopi_table_leaves_absent_tasks_empty() -> None:
     table = octopi_table(summarize({"run": records}))
     assert table["hardness"]["accuracy"] == 0.75 and table["hardness"]["n"] == 4
     assert table["PC"] is None and table["PSR"] is None
+
+
+def test_ask_answers_about_a_physiclear_mov_clip(folder: Path, model_dir: Path) -> None:
+    """The real-data path end to end for one clip: a GelSight Mini .mov decoded, encoded and answered."""
+    from tacreasoner.cli import app
+
+    question = "Here is a tactile video of an object: <tactile>\nHow does its hardness feel?"
+    result = CliRunner().invoke(app, ["ask", question, "--video", str(folder / "videos" / "denim_0.mov"), "--model",
+                                      str(model_dir), "--max-new-tokens", "4"])
+    assert result.exit_code == 0, result.output
+    assert "answer:" in result.output
