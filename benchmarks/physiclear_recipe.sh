@@ -49,7 +49,7 @@ step encoder runs/quickstart/encoder/model.safetensors \
 step bench "$W/bench/bench.json" $TR build-bench --source physiclear --data "$DATA" --out "$W/bench"
 step sim_bench "$W/sim_bench/bench.json" $TR build-bench --source sim --data runs/quickstart/sim \
     --vocabulary physiclear --out "$W/sim_bench"
-step rag_bench "$W/rag_bench/bench.json" $TR retrieval-bench --bench "$W/bench" --encoder runs/quickstart/encoder \
+[[ " ${VARIANTS[*]} " == *" rag "* ]] && step rag_bench "$W/rag_bench/bench.json" $TR retrieval-bench --bench "$W/bench" --encoder runs/quickstart/encoder \
     --out "$W/rag_bench" --k 3 --video-cache "$W/video_cache"
 for kind in random majority; do
     step "baseline_$kind" "$W/baselines/$kind/report.json" bash -c \

@@ -257,8 +257,10 @@ def augment_items(items: Sequence[QAItem], video_root: Path, reference: Referenc
     if k < 1:
         raise ValueError(f"k must be at least 1, got {k}")
     keys = {item.id: [video_key(v, video_root, f"item {item.id!r}") for v in item.videos] for item in items}
-    feats = embed_videos(encoder, video_config, [key for ks in keys.values() for key in ks],
-                         video_cache=video_cache, workers=workers)
+    # the reference clips are embedded already (a train split's items are mostly those clips): only the rest is
+    feats = {clip.key: row for clip, row in zip(reference.clips, reference.features, strict=True)}
+    feats.update(embed_videos(encoder, video_config, [key for ks in keys.values() for key in ks if key not in feats],
+                              video_cache=video_cache, workers=workers))
     out = []
     for item in items:
         if item.vocabulary != reference.vocabulary:
