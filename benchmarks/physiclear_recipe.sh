@@ -13,6 +13,8 @@
 #            in the prompt; evaluate-physiclear --retrieval asks val the same way)
 # Each step is skipped when its output exists; its wall time goes to $W/times.tsv when it runs.
 #   VARIANTS="core sim" bash benchmarks/physiclear_recipe.sh [SEED...]     # default: core, seed 0
+# SEEDS_<variant>="0 1 2" gives one variant its own seeds; a variant answered by several seeds is evaluated in
+# $W/eval_val/<variant>.seeds0-1-2, one seed in $W/eval_val/<variant> (never a resumed mix of both).
 set -u
 export PYTHONUNBUFFERED=1
 W=${W:-runs/physiclear}
@@ -62,7 +64,11 @@ rows=(--row "random=$W/baselines/random" --row "majority=$W/baselines/majority"
       --row "frozen-encoder linear probe=benchmarks/results/physiclear_probe.json")
 for v in "${VARIANTS[@]}"; do
     models=()
-    for s in "${SEEDS[@]}"; do
+    seeds_of_v="SEEDS_$v"
+    read -r -a vseeds <<< "${!seeds_of_v:-${SEEDS[*]}}"
+    tag=$v
+    [ "${#vseeds[@]}" -gt 1 ] && tag="$v.seeds$(IFS=-; echo "${vseeds[*]}")"
+    for s in "${vseeds[@]}"; do
         out="$W/runs/$v.seed$s"
         for st in 1 2; do
             # shellcheck disable=SC2086  # SETS holds several words
@@ -73,10 +79,10 @@ for v in "${VARIANTS[@]}"; do
         models+=(--model "$out/stage2/model")
     done
     # shellcheck disable=SC2086  # EVAL_SETS holds several words
-    step "$v.eval_val" "$W/eval_val/$v/octopi.json" $TR evaluate-physiclear "${models[@]}" --data "$DATA" \
-        --split val --out "$W/eval_val/$v" ${EVAL_SETS[$v]:-}
-    rows+=(--row "${LABEL[$v]} (${#SEEDS[@]} seed(s))=$W/eval_val/$v")
+    step "$tag.eval_val" "$W/eval_val/$tag/octopi.json" $TR evaluate-physiclear "${models[@]}" --data "$DATA" \
+        --split val --out "$W/eval_val/$tag" ${EVAL_SETS[$v]:-}
+    rows+=(--row "${LABEL[$v]} (${#vseeds[@]} seed(s))=$W/eval_val/$tag")
 done
 $PY benchmarks/physiclear_table.py --split val --name physiclear_val "${rows[@]}" \
-    --notes "Trained and answered on 2 CPU cores (this machine) by bash benchmarks/physiclear_recipe.sh ${SEEDS[*]}: $CONFIG (Stage I 300 + Stage II 600 steps on plain answers, SmolLM2-135M-Instruct from a 4-bit GGUF, the paper's core modules only; variants: ${VARIANTS[*]}, see the script); step wall times in seconds: $(tr '\t\n' '= ' < "$W/times.tsv"). Val: PhysiCLeAR's 7 val objects (Octopi's split); the recipe was not chosen on it (it is the DynTAC-Sim recipe, unchanged)." \
+    --notes "Trained and answered on 2 CPU cores (this machine) by $(for v in "${VARIANTS[@]}"; do n="SEEDS_$v"; [ -n "${!n:-}" ] && printf 'SEEDS_%s="%s" ' "$v" "${!n}"; done)VARIANTS="${VARIANTS[*]}" bash benchmarks/physiclear_recipe.sh ${SEEDS[*]}: $CONFIG (Stage I 300 + Stage II 600 steps on plain answers, SmolLM2-135M-Instruct from a 4-bit GGUF, the paper's core modules only; variants: ${VARIANTS[*]}, see the script); step wall times in seconds: $(tr '\t\n' '= ' < "$W/times.tsv"). Val: PhysiCLeAR's 7 val objects (Octopi's split); the recipe was not chosen on it (it is the DynTAC-Sim recipe, unchanged)." \
     > "$W/logs/table.log" 2>&1 && echo "[$(date +%H:%M:%S)] table written" || echo "table FAILED (see $W/logs/table.log)"

@@ -1013,29 +1013,6 @@ def _predict_split(model_dir: Path, bench: Path, split: str, out: Path, batch_si
     return items, path
 
 
-@app.command()
-@cli_errors
-def ask(
-    question: Annotated[str, typer.Argument(help="Question with one <tactile> per video, e.g. 'Is <tactile> soft?'.")],
-    video: Annotated[list[Path], typer.Option("--video", help="Tactile video file, one per <tactile> (repeatable).")],
-    model: Annotated[Path, typer.Option("--model", help="Trained model directory.")] = QUICKSTART_DIR / "model",
-    max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply.")] = 256,
-    sample: Annotated[bool, typer.Option("--sample/--greedy", help="Sample instead of greedy decoding.")] = False,
-) -> None:
-    """Ask a trained model about tactile videos; prints its reasoning and answer."""
-    _needs_train_extra("ask")
-    from tacreasoner.evaluate.predict import load_trained
-
-    for path in video:
-        if not path.is_file():
-            raise FileNotFoundError(f"--video {path}: no such file")
-    loaded, processor = load_trained(model)
-    reply = loaded.answer(processor, question, [str(p) for p in video], max_new_tokens=max_new_tokens,
-                          do_sample=sample)
-    console.print(f"[bold]think:[/bold] {reply.think if reply.think is not None else '(none)'}")
-    console.print(f"[bold]answer:[/bold] {reply.answer if reply.answer is not None else reply.text}")
-
-
 # ------------------------------------------------------------------------------------------ pretrained LLMs
 
 llm_app = typer.Typer(help="Pretrained LLMs that reach this machine through a package registry.", no_args_is_help=True)
@@ -1183,6 +1160,10 @@ def _root(
                                           help="Print the version and exit.")] = False,
 ) -> None:
     """TacReasoner: tactile-language reasoning. Simulate tactile video (DynTAC-Sim) and preview it."""
+
+
+# ask, serve and demo: using a trained model (registered on ``app`` by their module)
+from tacreasoner import cli_serve  # noqa: E402, F401
 
 
 def main() -> None:

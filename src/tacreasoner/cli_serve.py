@@ -1,0 +1,153 @@
+"""``tacreasoner ask``, ``serve`` and ``demo``: a trained model answering a person, a robot, or a browser.
+
+Registered on the main ``app`` of :mod:`tacreasoner.cli` (kept apart because that module is long already).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from tacreasoner.cli import QUICKSTART_DIR, _needs_train_extra, app, cli_errors, console
+
+DEFAULT_MODEL = QUICKSTART_DIR / "model"
+
+
+def _load_engine(model: Path, name: str = "tacreasoner") -> Any:
+    """The model, loaded without transformers' weight-loading progress bar (noise before a streamed answer)."""
+    from transformers.utils import logging as hf_logging
+
+    from tacreasoner.serve import TactileEngine
+
+    hf_logging.disable_progress_bar()
+    return TactileEngine.load(model, name=name)
+
+
+def _needs_serve_extra(command: str) -> None:
+    try:
+        import fastapi  # noqa: F401
+        import uvicorn  # noqa: F401
+    except ImportError:
+        raise ValueError(f'{command} needs the serve extra: pip install -e ".[train,serve]"') from None
+
+
+@app.command()
+@cli_errors
+def ask(
+    question: Annotated[str, typer.Argument(help="Question with one <tactile> per video, e.g. 'Is <tactile> soft?'.")],
+    video: Annotated[list[Path], typer.Option("--video", help="Tactile video file, one per <tactile> (repeatable).")],
+    model: Annotated[Path, typer.Option("--model", help="Trained model directory.")] = DEFAULT_MODEL,
+    max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply.")] = 256,
+    sample: Annotated[bool, typer.Option("--sample/--greedy", help="Sample instead of greedy decoding.")] = False,
+    temperature: Annotated[float, typer.Option(help="Sampling temperature (with --sample).")] = 0.7,
+    top_p: Annotated[float, typer.Option("--top-p", help="Nucleus sampling mass (with --sample).")] = 0.9,
+    seed: Annotated[int | None, typer.Option(help="Seed of the sampling (with --sample).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object (think, answer, timings) "
+                                                         "instead of streaming.")] = False,
+) -> None:
+    """Ask a trained model about tactile videos; streams its reasoning as it is generated, then the answer."""
+    _needs_train_extra("ask")
+    from tacreasoner.serve import Delta, Prompt, Reply, Sampling
+
+    for path in video:
+        if not path.is_file():
+            raise FileNotFoundError(f"--video {path}: no such file")
+    engine = _load_engine(model)
+    sampling = Sampling(max_new_tokens=max_new_tokens, temperature=temperature if sample else 0.0,
+                        top_p=top_p if sample else 1.0, seed=seed)
+    prompt = Prompt.ask(question, [str(p) for p in video])
+    if as_json:
+        reply = engine.complete(prompt, sampling)
+        typer.echo(json.dumps({"model": str(model), "videos": [str(v) for v in video], **reply.to_dict()}))
+        return
+    channel = None
+    reply = None
+    for piece in engine.stream(prompt, sampling):
+        if isinstance(piece, Delta):
+            if piece.channel != channel:
+                label = "think:" if piece.channel == "reasoning" else "answer:"
+                console.print(("\n" if channel else "") + f"[bold]{label}[/bold] ", end="")
+                channel = piece.channel
+            console.print(piece.text, end="", markup=False)
+            sys.stdout.flush()
+        elif isinstance(piece, Reply):
+            reply = piece
+    if reply is not None and not reply.content:
+        console.print(("\n" if channel else "") + "[bold]answer:[/bold] (none: the reply ended without one)", end="")
+    console.print()
+    if reply is not None:
+        t = reply.timings
+        console.print(f"[dim]{reply.completion_tokens} tokens in {t['total_s']:.2f} s "
+                      f"({t['tokens_per_s']:.0f} tokens/s; first after {t.get('first_token_s', 0):.2f} s); "
+                      f"{reply.finish_reason}[/dim]")
+
+
+@app.command()
+@cli_errors
+def serve(
+    model: Annotated[Path, typer.Option("--model", help="Trained model directory.")] = DEFAULT_MODEL,
+    host: Annotated[str, typer.Option(help="Address to listen on (0.0.0.0 for every interface).")] = "127.0.0.1",
+    port: Annotated[int, typer.Option(help="TCP port.")] = 8000,
+    name: Annotated[str, typer.Option(help="The model id clients send.")] = "tacreasoner",
+    api_key: Annotated[str | None, typer.Option("--api-key", envvar="TACREASONER_API_KEY",
+                                                help="Require 'Authorization: Bearer KEY' (or set "
+                                                     "TACREASONER_API_KEY).")] = None,
+    max_batch: Annotated[int, typer.Option("--max-batch", help="Non-streamed requests answered together; "
+                                                               "1 turns batching off.")] = 8,
+    max_pending: Annotated[int, typer.Option("--max-pending", help="Requests that may wait; more are told "
+                                                                   "the server is busy (503).")] = 64,
+    decode_timeout: Annotated[float, typer.Option("--decode-timeout", help="Seconds one reply may take.")] = 120.0,
+    max_request_mb: Annotated[float, typer.Option("--max-request-mb", help="Largest request body.")] = 64.0,
+    max_videos: Annotated[int, typer.Option("--max-videos", help="Videos per request.")] = 4,
+    allow_dir: Annotated[list[Path] | None, typer.Option(
+        "--allow-dir", help="Directory whose files clients may name as file:// URLs (repeatable).")] = None,
+) -> None:
+    """Serve a trained model with the OpenAI chat completions API (videos as video_url parts)."""
+    _needs_train_extra("serve")
+    _needs_serve_extra("serve")
+    from tacreasoner.serve.http import serve_forever
+    from tacreasoner.serve.media import MediaLimits
+    from tacreasoner.serve.openai_api import ServerSettings, create_app
+
+    for value, option in ((max_batch, "--max-batch"), (max_pending, "--max-pending"), (max_videos, "--max-videos")):
+        if value < 1:
+            raise ValueError(f"{option} must be >= 1, got {value}")
+    dirs = tuple(d.resolve() for d in allow_dir or [])
+    for d in dirs:
+        if not d.is_dir():
+            raise FileNotFoundError(f"--allow-dir {d}: no such directory")
+    engine = _load_engine(model, name)
+    settings = ServerSettings(api_key=api_key, max_request_bytes=int(max_request_mb * 2**20),
+                              decode_timeout_s=decode_timeout, max_pending=max_pending, max_batch=max_batch,
+                              limits=MediaLimits(max_videos=max_videos, allowed_dirs=dirs))
+    console.print(f"serving {model} as {name!r} on http://{host}:{port}/v1 "
+                  f"({'API key required' if api_key else 'no API key'}; batching up to {max_batch})")
+    serve_forever(create_app(engine, settings), host=host, port=port)
+
+
+@app.command()
+@cli_errors
+def demo(
+    model: Annotated[Path, typer.Option("--model", help="Trained model directory.")] = DEFAULT_MODEL,
+    host: Annotated[str, typer.Option(help="Address to listen on.")] = "127.0.0.1",
+    port: Annotated[int, typer.Option(help="TCP port.")] = 7860,
+    examples: Annotated[Path, typer.Option(help="Where the simulated example clips are made (once).")] =
+        Path("runs/demo_examples"),
+) -> None:
+    """A web page: upload 1-3 tactile clips (or pick simulated ones), see what the sensor felt, ask, watch the
+    reasoning stream."""
+    _needs_train_extra("demo")
+    try:
+        import gradio  # noqa: F401
+    except ImportError:
+        raise ValueError('demo needs the serve extra: pip install -e ".[train,serve]"') from None
+    from tacreasoner.serve.demo import build_demo, example_clips
+
+    engine = _load_engine(model)
+    clips = example_clips(examples)
+    console.print(f"demo of {model} on http://{host}:{port}")
+    build_demo(engine, clips).launch(server_name=host, server_port=port, show_error=True)

@@ -1,0 +1,45 @@
+"""A saved tiny model taught two replies (the serving path is what is tested) and synthetic clips on disk."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "evaluate"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from evalsetup import save_untrained_model
+from served import REPLIES, TEXTS, press_clip
+
+from tacreasoner.data.video import write_video
+
+
+@pytest.fixture(scope="session")
+def served_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A tiny model taught two fixed replies (a few seconds of training), so that streams carry reasoning, an
+    answer and an end of turn like a trained model's; other questions get its noise."""
+    import torch
+
+    from tacreasoner.model.build import load_model, save_model
+
+    root = tmp_path_factory.mktemp("served")
+    model, processor = load_model(save_untrained_model(TEXTS, root, vocab_size=400))
+    examples = [processor.example(q, a, [press_clip(k) for k in range(q.count("<tactile>"))])
+                for q, a in REPLIES.items()]
+    batch = processor.collate(examples)
+    torch.manual_seed(0)
+    optimizer = torch.optim.AdamW(model.parameters(), lr=3e-3)
+    model.train()
+    for _ in range(80):
+        loss = model(**batch).loss
+        loss.backward()
+        optimizer.step()
+        optimizer.zero_grad()
+    return save_model(model.eval(), processor, root / "taught")
+
+
+@pytest.fixture(scope="session")
+def clip_files(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    root = tmp_path_factory.mktemp("clips")
+    return [write_video(root / f"press_{k}.mp4", press_clip(k), fps=10) for k in range(3)]

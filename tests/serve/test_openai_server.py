@@ -1,0 +1,214 @@
+"""The OpenAI-compatible server, started on loopback and spoken to with the official ``openai`` client."""
+
+from __future__ import annotations
+
+import base64
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import openai
+import pytest
+from served import ONE, REPLIES, TWO, free_port
+
+from tacreasoner.serve import TactileEngine
+from tacreasoner.serve.http import ServerThread
+from tacreasoner.serve.media import MediaLimits, video_data_url
+from tacreasoner.serve.openai_api import ServerSettings, create_app
+from tacreasoner.tasks.extract import split_reasoning
+
+KEY = "test-key"
+
+
+@pytest.fixture(scope="module")
+def engine(served_model: Path) -> TactileEngine:
+    return TactileEngine.load(served_model, device="cpu")
+
+
+def _server(engine: TactileEngine, port: int, **settings: Any) -> ServerThread:
+    return ServerThread(create_app(engine, ServerSettings(**settings)), port=port)
+
+
+@pytest.fixture(scope="module")
+def url(engine: TactileEngine, clip_files: list[Path]) -> Iterator[str]:
+    limits = MediaLimits(max_videos=3, allowed_dirs=(clip_files[0].parent.resolve(),))
+    with _server(engine, free_port(), api_key=KEY, max_request_bytes=2 * 2**20, limits=limits) as base:
+        yield base
+
+
+def _client(url: str, key: str = KEY) -> openai.OpenAI:
+    return openai.OpenAI(base_url=f"{url}/v1", api_key=key, max_retries=0, timeout=60)
+
+
+def _video(path: Path) -> dict[str, Any]:
+    return {"type": "video_url", "video_url": {"url": video_data_url(path)}}
+
+
+def _ask(text: str, *videos: dict[str, Any]) -> list[dict[str, Any]]:
+    return [{"role": "user", "content": [*videos, {"type": "text", "text": text}]}]
+
+
+def test_a_request_gets_the_answer_in_content_and_the_reasoning_beside_it(url: str, clip_files: list[Path]) -> None:
+    client = _client(url)
+    assert [m.id for m in client.models.list()] == ["tacreasoner"]
+    reply = client.chat.completions.create(model="tacreasoner", messages=_ask(ONE, _video(clip_files[0])),
+                                           max_tokens=40)
+    think, answer = split_reasoning(REPLIES[ONE])
+    message = reply.choices[0].message
+    assert (message.content, message.reasoning_content) == (answer, think)
+    assert reply.choices[0].finish_reason == "stop" and reply.object == "chat.completion"
+    assert reply.usage.completion_tokens > 5 and reply.usage.total_tokens == \
+        reply.usage.prompt_tokens + reply.usage.completion_tokens
+
+
+def test_a_streamed_request_arrives_token_by_token(url: str, clip_files: list[Path]) -> None:
+    stream = _client(url).chat.completions.create(model="tacreasoner", messages=_ask(ONE, _video(clip_files[0])),
+                                                  max_tokens=40, stream=True, stream_options={"include_usage": True})
+    chunks = list(stream)
+    deltas = [c.choices[0].delta for c in chunks if c.choices]
+    reasoning = "".join(getattr(d, "reasoning_content", None) or "" for d in deltas)
+    content = "".join(d.content or "" for d in deltas)
+    assert (reasoning.strip(), content.strip()) == split_reasoning(REPLIES[ONE])
+    assert sum(bool(getattr(d, "reasoning_content", None)) for d in deltas) > 5
+    assert [c.choices[0].finish_reason for c in chunks if c.choices][-1] == "stop"
+    assert chunks[-1].usage is not None and chunks[-1].usage.completion_tokens > 5
+
+
+def test_two_videos_in_one_message_placed_by_placeholders_or_by_their_parts(url: str,
+                                                                            clip_files: list[Path]) -> None:
+    client = _client(url)
+    placed = client.chat.completions.create(
+        model="tacreasoner", messages=_ask(TWO, _video(clip_files[0]), _video(clip_files[1])), max_tokens=40)
+    assert placed.choices[0].message.content == "A"
+    by_parts = [{"role": "user", "content": [{"type": "text", "text": "Which of"}, _video(clip_files[0]),
+                                             {"type": "text", "text": "and"}, _video(clip_files[1]),
+                                             {"type": "text", "text": "is rougher? (A) first (B) second"}]}]
+    reply = client.chat.completions.create(model="tacreasoner", messages=by_parts, max_tokens=40)
+    assert reply.choices[0].message.content == "A", "the parts give the same prompt as the placeholders"
+    on_disk = [{"role": "user", "content": [
+        {"type": "video_url", "video_url": {"url": clip_files[0].resolve().as_uri()}},
+        {"type": "text", "text": ONE}]}]
+    assert client.chat.completions.create(model="tacreasoner", messages=on_disk, max_tokens=40) \
+        .choices[0].message.content == "soft"
+
+
+def _truncated(path: Path) -> dict[str, Any]:
+    data = path.read_bytes()
+    return {"type": "video_url", "video_url": {"url": "data:video/mp4;base64," +
+                                               base64.b64encode(data[: len(data) // 2]).decode()}}
+
+
+def _raw(data: bytes, mime: str = "video/mp4") -> dict[str, Any]:
+    return {"type": "video_url", "video_url": {"url": f"data:{mime};base64,{base64.b64encode(data).decode()}"}}
+
+
+BAD: dict[str, tuple[Callable[[list[Path]], dict[str, Any]], type[openai.APIStatusError], str]] = {
+    "bad base64": (lambda c: _ask(ONE, {"type": "video_url", "video_url": {"url": "data:video/mp4;base64,@@@"}}),
+                   openai.BadRequestError, "invalid_base64"),
+    "not a video": (lambda c: _ask(ONE, _raw(b"GIF89a" + bytes(500))), openai.BadRequestError, "invalid_video"),
+    "an image type": (lambda c: _ask(ONE, _raw(b"\x89PNG", "image/png")), openai.BadRequestError, "invalid_video"),
+    "a truncated video": (lambda c: _ask(ONE, _truncated(c[0])), openai.BadRequestError, "invalid_video"),
+    "too many videos": (lambda c: _ask("<tactile>" * 4, *[_video(c[0])] * 4), openai.BadRequestError,
+                        "too_many_videos"),
+    "placeholders unlike the videos": (lambda c: _ask(TWO, _video(c[0])), openai.BadRequestError,
+                                       "placeholder_mismatch"),
+    "a file outside the allowed directory": (
+        lambda c: _ask(ONE, {"type": "video_url", "video_url": {"url": "file:///etc/hostname"}}),
+        openai.BadRequestError, "file_url_not_allowed"),
+    "a remote URL": (lambda c: _ask(ONE, {"type": "video_url", "video_url": {"url": "https://x.org/a.mp4"}}),
+                     openai.BadRequestError, "invalid_video_url"),
+    "too large": (lambda c: _ask(ONE, _raw(bytes(3 * 2**20))), openai.APIStatusError, "request_too_large"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD))
+def test_each_client_fault_is_a_4xx_error_and_the_server_keeps_serving(url: str, clip_files: list[Path],
+                                                                       case: str) -> None:
+    make, error, code = BAD[case]
+    client = _client(url)
+    with pytest.raises(error) as caught:
+        client.chat.completions.create(model="tacreasoner", messages=make(clip_files), max_tokens=8)
+    assert 400 <= caught.value.status_code < 500 and caught.value.code == code
+    assert "Traceback" not in str(caught.value.body)
+    assert client.chat.completions.create(model="tacreasoner", messages=_ask(ONE, _video(clip_files[0])),
+                                          max_tokens=40).choices[0].message.content == "soft"
+
+
+def test_unknown_models_keys_and_parameters_are_refused(url: str, clip_files: list[Path]) -> None:
+    messages = _ask(ONE, _video(clip_files[0]))
+    with pytest.raises(openai.NotFoundError, match="not served here"):
+        _client(url).chat.completions.create(model="gpt-4o", messages=messages)
+    with pytest.raises(openai.AuthenticationError):
+        _client(url, key="wrong").chat.completions.create(model="tacreasoner", messages=messages)
+    with pytest.raises(openai.BadRequestError, match="temperature"):
+        _client(url).chat.completions.create(model="tacreasoner", messages=messages, temperature=5)
+    with pytest.raises(openai.BadRequestError, match="n: this server returns one choice"):
+        _client(url).chat.completions.create(model="tacreasoner", messages=messages, n=2)
+    health = httpx.get(f"{url}/health").json()
+    assert health["status"] == "ok"
+
+
+def test_sampling_parameters_are_honoured(url: str, clip_files: list[Path]) -> None:
+    client = _client(url)
+    messages = _ask("What does <tactile> feel like?", _video(clip_files[2]))
+    seeded = [client.chat.completions.create(model="tacreasoner", messages=messages, max_tokens=10, temperature=1.5,
+                                             top_p=0.9, seed=3).choices[0].message for _ in range(2)]
+    assert seeded[0].content == seeded[1].content and seeded[0].reasoning_content == seeded[1].reasoning_content
+    short = client.chat.completions.create(model="tacreasoner", messages=_ask(ONE, _video(clip_files[0])),
+                                           max_tokens=3)
+    assert short.choices[0].finish_reason == "length" and short.usage.completion_tokens == 3
+    stopped = client.chat.completions.create(model="tacreasoner", messages=_ask(ONE, _video(clip_files[0])),
+                                             max_tokens=40, stop=["wide"])
+    assert stopped.choices[0].message.reasoning_content == "The imprint is deep and"
+
+
+def test_server_faults_are_5xx_without_a_traceback(engine: TactileEngine, clip_files: list[Path],
+                                                   free_port: Callable[[], int],
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    messages = _ask(ONE, _video(clip_files[0]))
+    with _server(engine, free_port(), decode_timeout_s=0.0) as base:
+        with pytest.raises(openai.InternalServerError) as caught:
+            _client(base).chat.completions.create(model="tacreasoner", messages=messages, max_tokens=40)
+        assert caught.value.status_code == 504 and caught.value.code == "decode_timeout"
+
+    def broken(*args: Any, **kwargs: Any) -> Any:
+        raise RuntimeError("secret internals")
+
+    with _server(engine, free_port()) as base:
+        monkeypatch.setattr(engine, "prepare", broken)
+        with pytest.raises(openai.InternalServerError) as caught:
+            _client(base).chat.completions.create(model="tacreasoner", messages=messages, max_tokens=40)
+        assert caught.value.status_code == 500
+        assert "secret" not in str(caught.value.body) and "Traceback" not in str(caught.value.body)
+        assert "internal error (id " in caught.value.message
+
+
+def test_a_full_queue_answers_busy_instead_of_waiting(engine: TactileEngine, clip_files: list[Path],
+                                                      free_port: Callable[[], int]) -> None:
+    messages = _ask(ONE, _video(clip_files[0]))
+    results: list[Any] = []
+
+    def call(base: str) -> None:
+        try:
+            results.append(_client(base).chat.completions.create(model="tacreasoner", messages=messages,
+                                                                  max_tokens=40))
+        except openai.APIStatusError as exc:
+            results.append(exc)
+
+    with _server(engine, free_port(), max_pending=1, max_batch=1) as base:
+        with engine.lock:  # the model is busy: one request runs (blocked), one waits, the third is refused
+            threads = [threading.Thread(target=call, args=(base,)) for _ in range(3)]
+            for t in threads:
+                t.start()
+                time.sleep(0.5)
+            deadline = time.monotonic() + 10
+            while not results and time.monotonic() < deadline:
+                time.sleep(0.05)
+            assert len(results) == 1 and isinstance(results[0], openai.APIStatusError)
+            assert results[0].status_code == 503 and results[0].code == "server_busy"
+        for t in threads:
+            t.join(timeout=60)
+    assert sum(not isinstance(r, Exception) for r in results) == 2
