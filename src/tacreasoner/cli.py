@@ -996,7 +996,7 @@ def _retrieval_settings(bench: Path, encoder: Path | None, k: int | None) -> tup
 
 def _predict_split(model_dir: Path, bench: Path, split: str, out: Path, batch_size: int, max_new_tokens: int,
                    limit: int | None, touch: str = "real", touch_seed: int = 0) -> tuple[list, Path]:
-    from tacreasoner.evaluate.predict import load_trained, predict_items, predictions_path
+    from tacreasoner.evaluate.predict import answerer_id, load_trained, predict_items, predictions_path
     from tacreasoner.tasks.bench import load_bench
     from tacreasoner.train.data import bench_video_root
 
@@ -1009,7 +1009,8 @@ def _predict_split(model_dir: Path, bench: Path, split: str, out: Path, batch_si
     label = split if touch == "real" else f"{split} ({touch} touch)"
     with ClipProgress(f"answering {label}", "items") as bar:
         predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
-                      max_new_tokens=max_new_tokens, progress=bar, touch=touch, touch_seed=touch_seed)
+                      max_new_tokens=max_new_tokens, progress=bar, touch=touch, touch_seed=touch_seed,
+                      answered_by=answerer_id(model_dir, bench))
     return items, path
 
 

@@ -15,6 +15,8 @@ import typer
 from tacreasoner.cli import QUICKSTART_DIR, _needs_train_extra, app, cli_errors, console
 
 DEFAULT_MODEL = QUICKSTART_DIR / "model"
+ModelDir = Annotated[Path, typer.Option("--model", help="Trained model directory (a training run's stage2/model).")]
+Host = Annotated[str, typer.Option(help="Address to listen on (0.0.0.0 for every interface).")]
 
 
 def _load_engine(model: Path, name: str = "tacreasoner") -> Any:
@@ -40,7 +42,7 @@ def _needs_serve_extra(command: str) -> None:
 def ask(
     question: Annotated[str, typer.Argument(help="Question with one <tactile> per video, e.g. 'Is <tactile> soft?'.")],
     video: Annotated[list[Path], typer.Option("--video", help="Tactile video file, one per <tactile> (repeatable).")],
-    model: Annotated[Path, typer.Option("--model", help="Trained model directory.")] = DEFAULT_MODEL,
+    model: ModelDir = DEFAULT_MODEL,
     max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply.")] = 256,
     sample: Annotated[bool, typer.Option("--sample/--greedy", help="Sample instead of greedy decoding.")] = False,
     temperature: Annotated[float, typer.Option(help="Sampling temperature (with --sample).")] = 0.7,
@@ -89,8 +91,8 @@ def ask(
 @app.command()
 @cli_errors
 def serve(
-    model: Annotated[Path, typer.Option("--model", help="Trained model directory.")] = DEFAULT_MODEL,
-    host: Annotated[str, typer.Option(help="Address to listen on (0.0.0.0 for every interface).")] = "127.0.0.1",
+    model: ModelDir = DEFAULT_MODEL,
+    host: Host = "127.0.0.1",
     port: Annotated[int, typer.Option(help="TCP port.")] = 8000,
     name: Annotated[str, typer.Option(help="The model id clients send.")] = "tacreasoner",
     api_key: Annotated[str | None, typer.Option("--api-key", envvar="TACREASONER_API_KEY",
@@ -132,8 +134,8 @@ def serve(
 @app.command()
 @cli_errors
 def demo(
-    model: Annotated[Path, typer.Option("--model", help="Trained model directory.")] = DEFAULT_MODEL,
-    host: Annotated[str, typer.Option(help="Address to listen on.")] = "127.0.0.1",
+    model: ModelDir = DEFAULT_MODEL,
+    host: Host = "127.0.0.1",
     port: Annotated[int, typer.Option(help="TCP port.")] = 7860,
     examples: Annotated[Path, typer.Option(help="Where the simulated example clips are made (once).")] =
         Path("runs/demo_examples"),

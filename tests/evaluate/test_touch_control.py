@@ -273,6 +273,29 @@ def test_evaluate_touch_flag_keeps_the_modes_side_by_side(model_dir: Path, bench
     assert "touch must be one of real, blank, shuffled; got 'nothing'" in result.output
 
 
+def test_evaluate_refuses_to_resume_answers_of_another_model_or_benchmark(model_dir: Path, bench: Path,
+                                                                          tmp_path: Path) -> None:
+    import shutil
+
+    from tacreasoner.cli import app
+
+    runner = CliRunner()
+    out = tmp_path / "eval"
+    base = ["evaluate", "--bench", str(bench), "--out", str(out), "--max-new-tokens", "2"]
+    assert runner.invoke(app, [*base, "--model", str(model_dir), "--limit", "2"]).exit_code == 0
+    lines = [json.loads(line) for line in (out / "predictions" / "test.jsonl").read_text().splitlines()]
+    assert all(line["answered_by"].startswith(f"model={model_dir.resolve()} [") and
+               line["answered_by"].endswith(f"; bench={bench.resolve()}") for line in lines)
+    other = tmp_path / "other_model"
+    shutil.copytree(model_dir, other)
+    refused = runner.invoke(app, [*base, "--model", str(other), "--limit", "3"])
+    assert refused.exit_code == 2 and "predictions made by model=" in refused.output
+    assert "rather than mix the two" in refused.output
+    resumed = runner.invoke(app, [*base, "--model", str(model_dir), "--limit", "3"])
+    assert resumed.exit_code == 0, resumed.output
+    assert len((out / "predictions" / "test.jsonl").read_text().splitlines()) == 3, "the same model resumes"
+
+
 @pytest.fixture(scope="module")
 def touch_control() -> Any:
     return benchmark_module("touch_control")

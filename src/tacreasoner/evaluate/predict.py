@@ -24,8 +24,8 @@ import torch
 
 from tacreasoner.tasks.schema import QAItem
 
-__all__ = ["TOUCH_MODES", "blank_video", "check_touch", "load_trained", "predict_items", "predictions_path",
-           "shuffle_videos"]
+__all__ = ["TOUCH_MODES", "answerer_id", "blank_video", "check_touch", "load_trained", "predict_items",
+           "predictions_path", "shuffle_videos"]
 
 TOUCH_MODES = ("real", "blank", "shuffled")
 """What the model gets as touch: the item's own videos, a featureless clip, or other items' videos."""
@@ -46,6 +46,16 @@ def load_trained(model_dir: str | os.PathLike[str], adapter: str | os.PathLike[s
     return model.to(device).eval(), processor
 
 
+def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[str]) -> str:
+    """Who answers what, as recorded on each prediction line: the model folder (path, weights' size and time) and the
+    benchmark folder. Item ids repeat across models and benchmark variants, so a resumed file must be checked
+    against it rather than mix two runs' answers."""
+    model = Path(model_dir).resolve()
+    weights = sorted(model.glob("*.safetensors"))
+    stamp = ",".join(f"{w.stat().st_size}@{w.stat().st_mtime_ns // 10**9}" for w in weights)
+    return f"model={model} [{stamp}]; bench={Path(bench_dir).resolve()}"
+
+
 def check_touch(touch: str) -> str:
     """``touch`` if it is a known mode; a ValueError naming the allowed ones otherwise."""
     if touch not in TOUCH_MODES:
@@ -60,9 +70,11 @@ def predictions_path(out_dir: str | os.PathLike[str], split: str, touch: str = "
     return Path(out_dir) / "predictions" / f"{name}.jsonl"
 
 
-def _done_ids(path: Path, touch: str = "real", touch_seed: int | None = None) -> set[str]:
-    """Ids already answered; raises when the file was written with another touch mode (or shuffle seed), since
-    resuming would mix two controls in one file. Lines without ``touch`` predate it and were real touch."""
+def _done_ids(path: Path, touch: str = "real", touch_seed: int | None = None, answered_by: str | None = None,
+              ) -> set[str]:
+    """Ids already answered; raises when the file was written with another touch mode (or shuffle seed) or by another
+    model or benchmark (``answered_by``, where both the line and the run record one), since resuming would mix two
+    runs in one file. Lines without ``touch`` predate it and were real touch."""
     if not path.is_file():
         return set()
     done = set()
@@ -79,6 +91,10 @@ def _done_ids(path: Path, touch: str = "real", touch_seed: int | None = None) ->
                 wanted = touch + (f" (touch_seed {touch_seed})" if touch == "shuffled" else "")
                 raise ValueError(f"{path}:{number}: predictions made with touch={found}, this run asks for "
                                  f"touch={wanted}; write them to another file rather than mix the two")
+            before = record.get("answered_by")
+            if answered_by is not None and before is not None and before != answered_by:
+                raise ValueError(f"{path}:{number}: predictions made by {before}, this run is {answered_by}; "
+                                 f"write them to another --out rather than mix the two")
             done.add(item_id)
     return done
 
@@ -174,13 +190,15 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
                   out_path: str | os.PathLike[str], *, batch_size: int = 32, max_new_tokens: int = 256,
                   progress: Callable[[int, int], None] | None = None,
                   video_cache: str | os.PathLike[str] | None = None, touch: str = "real",
-                  touch_seed: int = 0) -> Path:
+                  touch_seed: int = 0, answered_by: str | None = None) -> Path:
     """Greedy answers for ``items`` appended to ``out_path`` (items already there are skipped).
 
     ``video_cache``: the training run's preprocessed-video directory, reused when given.
     ``touch``: ``real`` (the item's videos), ``blank`` (every video a featureless clip, sensor ids kept) or
     ``shuffled`` (the videos of other items of ``items``, see :func:`shuffle_videos`, drawn from ``touch_seed``);
-    each line records it, and a file written with another mode is refused rather than resumed."""
+    each line records it, and a file written with another mode is refused rather than resumed.
+    ``answered_by`` (:func:`answerer_id`): recorded on each line; a file answered by another model or benchmark is
+    refused rather than resumed."""
     from tacreasoner.train.data import VideoBank, video_key
 
     check_touch(touch)
@@ -189,7 +207,7 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
     if out.is_file() and out.read_bytes()[-1:] not in (b"", b"\n"):
         with out.open("a", encoding="utf-8") as f:  # a crash cut the last line: close it so appends stay valid
             f.write("\n")
-    done = _done_ids(out, touch, touch_seed)
+    done = _done_ids(out, touch, touch_seed, answered_by)
     todo = [item for item in items if item.id not in done]
     root = Path(video_root)
     if touch == "shuffled":  # drawn over all items, not only those left: a resumed run gets the same videos
@@ -197,7 +215,8 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
         keys = shuffle_videos(own, touch_seed, {item.id: item.objects for item in items})
     else:
         keys = {item.id: [video_key(v, root, f"item {item.id!r}") for v in item.videos] for item in todo}
-    tag: dict[str, Any] = {"touch": touch} | ({"touch_seed": touch_seed} if touch == "shuffled" else {})
+    tag: dict[str, Any] = {"touch": touch} | ({"touch_seed": touch_seed} if touch == "shuffled" else {}) | \
+        ({"answered_by": answered_by} if answered_by is not None else {})
     bank = VideoBank(processor.video_config, processor.sensor_types)
     bank.build([k for item in todo for k in keys[item.id]], cache_dir=video_cache)
     blank = blank_video(processor.video_config) if touch == "blank" else None
