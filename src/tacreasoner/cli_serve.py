@@ -70,6 +70,9 @@ def ask(
     reply = None
     for piece in engine.stream(prompt, sampling):
         if isinstance(piece, Delta):
+            if channel is None and piece.channel == "content":  # no reasoning came first: say so
+                console.print("[bold]think:[/bold] (none)")
+                channel = "reasoning"
             if piece.channel != channel:
                 label = "think:" if piece.channel == "reasoning" else "answer:"
                 console.print(("\n" if channel else "") + f"[bold]{label}[/bold] ", end="")
@@ -78,6 +81,8 @@ def ask(
             sys.stdout.flush()
         elif isinstance(piece, Reply):
             reply = piece
+    if channel is None:
+        console.print("[bold]think:[/bold] (none)")
     if reply is not None and not reply.content:
         console.print(("\n" if channel else "") + "[bold]answer:[/bold] (none: the reply ended without one)", end="")
     console.print()
