@@ -121,8 +121,13 @@ class Reply:
 
 @dataclass
 class _Prepared:
-    inputs: dict[str, torch.Tensor]
-    prompt_tokens: int
+    """One prompt's row (ids, question mask, videos), ready for ``processor.collate`` alone or with others."""
+
+    row: dict[str, Any]
+
+    @property
+    def prompt_tokens(self) -> int:
+        return len(self.row["input_ids"])
 
 
 class _TokenQueue(BaseStreamer):
@@ -200,8 +205,7 @@ class TactileEngine:
         if self.max_prompt_tokens and len(enc.input_ids) >= self.max_prompt_tokens:
             raise RequestError(f"the prompt is {len(enc.input_ids)} tokens; this model reads at most "
                                f"{self.max_prompt_tokens}", param="messages", code="context_length_exceeded")
-        row = {"input_ids": enc.input_ids, "question_mask": enc.question_mask, **videos}
-        return _Prepared(dict(self.processor.collate([row], padding_side="left")), len(enc.input_ids))
+        return _Prepared({"input_ids": enc.input_ids, "question_mask": enc.question_mask, **videos})
 
     def _generate_kwargs(self, sampling: Sampling, max_new_tokens: int, halt: _Halt) -> dict[str, Any]:
         kwargs: dict[str, Any] = {"max_new_tokens": max_new_tokens, "eos_token_id": self.processor.eos_token_ids,
@@ -239,7 +243,8 @@ class TactileEngine:
                 with self.lock, torch.inference_mode():
                     if sampling.seed is not None:
                         torch.manual_seed(sampling.seed)
-                    inputs = {k: v.to(self.device) for k, v in prepared.inputs.items()}
+                    batch = self.processor.collate([prepared.row], padding_side="left")
+                    inputs = {k: v.to(self.device) for k, v in batch.items()}
                     self._base.generate(**inputs, streamer=tokens, **self._generate_kwargs(
                         sampling, self._room(prepared, sampling.max_new_tokens), halt))
             except BaseException as exc:  # re-raised in the caller's thread
@@ -319,13 +324,7 @@ class TactileEngine:
             raise ValueError("complete_batch: one sampling per prompt, all with the same batch_key (not None)")
         start = time.perf_counter()
         prepared = [p if isinstance(p, _Prepared) else self.prepare(p) for p in prompts]
-        rows = []
-        for p in prepared:
-            mask = p.inputs["attention_mask"][0].bool()
-            rows.append({"input_ids": p.inputs["input_ids"][0][mask].tolist(),
-                         "question_mask": p.inputs["question_mask"][0][mask].tolist(),
-                         "pixel_values": p.inputs["pixel_values"], "sensor_ids": p.inputs["sensor_ids"]})
-        batch = dict(self.processor.collate(rows, padding_side="left"))
+        batch = dict(self.processor.collate([p.row for p in prepared], padding_side="left"))
         ready = time.perf_counter()
         wanted = max(self._room(p, s.max_new_tokens) for p, s in zip(prepared, samplings, strict=True))
         halt = _Halt(None if timeout_s is None else time.monotonic() + timeout_s)

@@ -135,7 +135,7 @@ def create_app(engine: TactileEngine, settings: ServerSettings | None = None) ->
 
     @app.get("/health")
     async def health() -> dict[str, Any]:
-        return {"status": "ok", "model": engine.name, "waiting": scheduler._queue.qsize(), **scheduler.stats}
+        return {"status": "ok", "model": engine.name, "waiting": scheduler.waiting, **scheduler.stats}
 
     @app.get("/v1/models")
     async def models() -> dict[str, Any]:

@@ -67,6 +67,11 @@ class Scheduler:
             raise Busy(f"the server is busy ({self._queue.maxsize} requests waiting); retry shortly") from None
         return job
 
+    @property
+    def waiting(self) -> int:
+        """Requests in the queue, not yet taken by the model's thread."""
+        return self._queue.qsize() + len(self._held)
+
     def close(self) -> None:
         self._queue.put(_STOP)
         self._thread.join(timeout=30)
