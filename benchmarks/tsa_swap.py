@@ -1,10 +1,11 @@
 """Does a model choose TSA's object from touch, or from the question's wording? The same items with the videos swapped.
 
 A TSA item asks which of two touched objects suits a scenario, "(A) the first object (B) the second object". Its
-letter is balanced over the split, but not within each question template (three wordings; DynTAC-Sim-Bench's TSA
-plan draws template and letter independently), so a model that answers every wording with one fixed option can
-score well above 50% without touching anything. This control asks every item twice: as built, and with its two
-videos swapped (the right letter flips; the text stays). A model that reads the objects flips its answer with them.
+letter is balanced over the split, but in benchmark version 1 not within each question template (three wordings; the
+TSA plan drew template and letter independently; version 2 balances both), so on version 1 a model that answers every
+wording with one fixed option can score well above 50% without touching anything. This control asks every item
+twice: as built, and with its two videos swapped (the right letter flips; the text stays). A model that reads the
+objects flips its answer with them.
 
 Per model: accuracy on the items as built and swapped; the share of items answered with the same letter in both
 orders (the wording decided) and the share whose answer follows the objects (the letter flips with them); **right
@@ -128,7 +129,8 @@ def main() -> None:
     md = header_md(f"TSA with the videos swapped ({args.split})", info) + (args.notes + "\n\n" if args.notes else "")
     md += (f"{len(items)} TSA items of `{args.bench}` ({args.split}), each also asked with its two videos swapped. "
            f"A fixed letter per question wording would score **{100 * prior:.1f}%** on the items as built (the "
-           "template prior: letters are balanced over the split, not within each wording). An answer that follows the "
+           f"template prior; benchmark version {bench_info.get('version', 1)}: version 1 balances letters over the "
+           "split, version 2 also within each wording). An answer that follows the "
            "objects without knowing the scenario is right half the time, so *right when it follows* is read against "
            "50%.\n\n")
     rows = []

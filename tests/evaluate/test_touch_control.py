@@ -23,7 +23,7 @@ from tacreasoner.evaluate.predict import (
     predictions_path,
     shuffle_videos,
 )
-from tacreasoner.tasks.bench import load_bench
+from tacreasoner.tasks.bench import BENCH_VERSION, load_bench
 from tacreasoner.tasks.schema import QAItem
 from tacreasoner.train.data import bench_video_root, video_key
 
@@ -285,7 +285,7 @@ def test_evaluate_refuses_to_resume_answers_of_another_model_or_benchmark(model_
     assert runner.invoke(app, [*base, "--model", str(model_dir), "--limit", "2"]).exit_code == 0
     lines = [json.loads(line) for line in (out / "predictions" / "test.jsonl").read_text().splitlines()]
     assert all(line["answered_by"].startswith(f"model={model_dir.resolve()} [") and
-               line["answered_by"].endswith(f"; bench={bench.resolve()}") for line in lines)
+               line["answered_by"].endswith(f"; bench={bench.resolve()} v{BENCH_VERSION}") for line in lines)
     other = tmp_path / "other_model"
     shutil.copytree(model_dir, other)
     refused = runner.invoke(app, [*base, "--model", str(other), "--limit", "3"])
@@ -294,6 +294,24 @@ def test_evaluate_refuses_to_resume_answers_of_another_model_or_benchmark(model_
     resumed = runner.invoke(app, [*base, "--model", str(model_dir), "--limit", "3"])
     assert resumed.exit_code == 0, resumed.output
     assert len((out / "predictions" / "test.jsonl").read_text().splitlines()) == 3, "the same model resumes"
+
+
+def test_evaluate_refuses_to_resume_answers_of_another_benchmark_version(model_dir: Path, bench: Path,
+                                                                         tmp_path: Path) -> None:
+    """A benchmark rebuilt at another version asks other items under the same ids (TSA in version 2)."""
+    import shutil
+
+    from tacreasoner.cli import app
+
+    runner = CliRunner()
+    copy, out = tmp_path / "bench", tmp_path / "eval"
+    shutil.copytree(bench, copy)
+    base = ["evaluate", "--bench", str(copy), "--out", str(out), "--max-new-tokens", "2", "--model", str(model_dir)]
+    assert runner.invoke(app, [*base, "--limit", "2"]).exit_code == 0
+    info = json.loads((copy / "bench.json").read_text())
+    (copy / "bench.json").write_text(json.dumps({**info, "version": BENCH_VERSION - 1}))
+    refused = runner.invoke(app, [*base, "--limit", "3"])
+    assert refused.exit_code == 2 and f"v{BENCH_VERSION}, this run is" in refused.output, refused.output
 
 
 @pytest.fixture(scope="module")

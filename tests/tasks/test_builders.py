@@ -213,6 +213,19 @@ def test_tsa_follows_scenario_needs_and_balances_letters(items: list[QAItem], by
     assert len({i.gold["scenario"] for i in tsa}) >= 10
 
 
+def test_tsa_letters_balance_within_each_wording(items: list[QAItem]) -> None:
+    """Bench version 2: answering each TSA wording with one fixed letter must not beat chance (in version 1 it
+    scored 65% on the quickstart's val and test items)."""
+    per_wording: dict[str, Counter] = {}
+    for item in of(items, "TSA"):
+        per_wording.setdefault(item.meta["template"], Counter())[item.answer] += 1
+    assert len(per_wording) == 3
+    for wording, letters in per_wording.items():
+        assert abs(letters["A"] - letters["B"]) <= 2, (wording, letters)
+    oracle = sum(max(c.values()) for c in per_wording.values()) / sum(sum(c.values()) for c in per_wording.values())
+    assert oracle <= 0.56, oracle
+
+
 def test_rfor_real_fake_from_labels_and_balanced(items: list[QAItem], by_id: dict) -> None:
     rfor = of(items, "RFOR")
     for item in rfor:

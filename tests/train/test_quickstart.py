@@ -67,6 +67,17 @@ def test_evaluate_and_report_writes_tables_verdicts_and_publishes_the_model(trai
     assert (paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines() == lines, \
         "a finished prediction file is reused, not regenerated"
     assert again.summary_lines == report.summary_lines
+    info_path = paths.bench / "bench.json"
+    info = json.loads(info_path.read_text())
+    info_path.write_text(json.dumps({**info, "version": info["version"] + 1}))
+    try:  # the benchmark rebuilt at a new version: the old answers move aside and the items are answered anew
+        evaluate_and_report(paths, {0: paths.train(0) / "stage2" / "model"}, {})
+    finally:
+        info_path.write_text(json.dumps(info))
+    stale = paths.evaluation / "test" / "predictions" / "seed0.stale.jsonl"
+    assert stale.read_text().splitlines() == lines
+    fresh = [json.loads(line) for line in (stale.parent / "seed0.jsonl").read_text().splitlines()]
+    assert len(fresh) == len(lines) and all(r["answered_by"].endswith(f" v{info['version'] + 1}") for r in fresh)
 
 
 def test_ask_one_test_clip_prints_a_command_that_can_be_pasted(trained_run, monkeypatch) -> None:
@@ -141,3 +152,20 @@ def test_train_seed_over_two_processes_trains_with_the_same_global_batch(inputs:
     assert run["steps_done"] == config.stage2.steps
     assert Path(info["model"]).is_dir() and "stage2" in info["seconds"]
     assert train_seed(config, processes=2)["seconds"] == {}  # done: not redone
+
+
+def test_stale_predictions_are_set_aside_not_resumed(tmp_path: Path) -> None:
+    """A re-run after retraining, or after the benchmark was rebuilt at a new version, asks the same ids anew: the old
+    answers move aside instead of being scored against the new items."""
+    from tacreasoner.train.quickstart import set_aside_stale
+
+    path = tmp_path / "seed0.jsonl"
+    assert set_aside_stale(path, "me") is None  # nothing yet
+    lines = [{"id": "a", "prediction": "x", "answered_by": "me"}, {"id": "b", "prediction": "y", "answered_by": "me"}]
+    path.write_text("".join(json.dumps(r) + "\n" for r in lines) + '{"id": "c", "predic')  # a line cut by a crash
+    assert set_aside_stale(path, "me") is None and path.is_file(), "the same answerer resumes"
+    moved = set_aside_stale(path, "me v2")
+    assert moved == tmp_path / "seed0.stale.jsonl" and not path.exists()
+    assert moved.read_text().startswith('{"id": "a"'), "kept, not deleted"
+    path.write_text(json.dumps({"id": "a", "prediction": "x"}) + "\n")  # from before answers recorded who made them
+    assert set_aside_stale(path, "me") == moved and not path.exists()

@@ -53,7 +53,17 @@ def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[
     model = Path(model_dir).resolve()
     weights = sorted(model.glob("*.safetensors"))
     stamp = ",".join(f"{w.stat().st_size}@{w.stat().st_mtime_ns // 10**9}" for w in weights)
-    return f"model={model} [{stamp}]; bench={Path(bench_dir).resolve()}"
+    return f"model={model} [{stamp}]; bench={Path(bench_dir).resolve()}{_bench_version(Path(bench_dir))}"
+
+
+def _bench_version(bench_dir: Path) -> str:
+    """`` v2`` from the folder's bench.json (a rebuilt benchmark of another version asks other items under the same
+    ids), empty where there is none to read."""
+    try:
+        version = json.loads((bench_dir / "bench.json").read_text()).get("version")
+    except (OSError, ValueError, AttributeError):
+        return ""
+    return f" v{version}" if version is not None else ""
 
 
 def check_touch(touch: str) -> str:

@@ -212,14 +212,18 @@ class _Context:
         if n:
             self.report.skipped[reason] += n
 
-    def with_templates(self, plan: list[dict[str, Any]], kind: Callable[[dict], str] | str) -> list[dict[str, Any]]:
-        """Give each planned item a template, balanced within each template kind."""
-        cyclers: dict[str, _Cycler[Template]] = {}
+    def with_templates(self, plan: list[dict[str, Any]], kind: Callable[[dict], str] | str,
+                       within: str | None = None) -> list[dict[str, Any]]:
+        """Give each planned item a template, balanced within each template kind, and, with ``within`` (a plan
+        key such as ``"letter"``), within each of its values: every wording then carries each answer about
+        equally often, so no fixed answer per wording beats chance (TSA, bench version 2)."""
+        cyclers: dict[tuple[str, Any], _Cycler[Template]] = {}
         for p in plan:
             k = kind if isinstance(kind, str) else kind(p)
-            if k not in cyclers:
-                cyclers[k] = _Cycler(self.templates[k], self.rng)
-            p["template"] = cyclers[k].next()
+            key = (k, p[within] if within else None)
+            if key not in cyclers:
+                cyclers[key] = _Cycler(self.templates[k], self.rng)
+            p["template"] = cyclers[key].next()
         return plan
 
     def add(self, key: tuple, template: Template, clips: Sequence[TactileClip], gold: dict, slots: dict[str, str],
@@ -479,7 +483,7 @@ def _tsa(clips: Sequence[TactileClip], n: int | None, ctx: _Context) -> list[QAI
         return ctx.finish()
     cyclers = {s.id: _Cycler([c for g in groups[s.id].values() for c in g], ctx.rng) for s in feasible}
     plan = ctx.with_templates(_plan(len(usable) if n is None else n, ctx.rng, scenario=feasible, letter=("A", "B")),
-                              "tsa")
+                              "tsa", within="letter")
     shown = " ".join(f"({letter}) {o}" for letter, o in zip(LETTERS, TSA_OPTIONS, strict=False))
 
     def attempt(p: dict) -> bool:

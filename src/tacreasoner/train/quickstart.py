@@ -24,7 +24,8 @@ import yaml
 
 from tacreasoner.train.config import TrainConfig
 
-__all__ = ["QuickstartPaths", "distributed_config", "evaluate_seeds", "quickstart_config", "train_seed"]
+__all__ = ["QuickstartPaths", "distributed_config", "evaluate_seeds", "quickstart_config", "set_aside_stale",
+           "train_seed"]
 
 TINY_SETTINGS: dict[str, Any] = {
     "model": {"encoder": {"use_temporal": True, "question_conditioning": True, "tokens_per_video": 5,
@@ -154,7 +155,7 @@ def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tupl
                    batch_size: int = 48, max_new_tokens: int = 256, video_cache: Path | None = None,
                    progress: Callable[[str], Callable[[int, int], None]] | None = None) -> dict[str, Any]:
     """Answer each split with each seed's model; one report per split (mean ± std over seeds)."""
-    from tacreasoner.evaluate.predict import load_trained, predict_items
+    from tacreasoner.evaluate.predict import answerer_id, load_trained, predict_items
     from tacreasoner.evaluate.report import evaluate
     from tacreasoner.tasks.bench import load_bench
     from tacreasoner.train.data import bench_video_root
@@ -165,14 +166,33 @@ def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tupl
         files = []
         for seed, model_dir in sorted(models.items()):
             path = out / split / "predictions" / f"seed{seed}.jsonl"
+            who = answerer_id(model_dir, bench)
+            set_aside_stale(path, who)
             if not _complete(path, len(items)):
                 model, processor = load_trained(model_dir)
                 predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
-                              max_new_tokens=max_new_tokens, video_cache=video_cache,
+                              max_new_tokens=max_new_tokens, video_cache=video_cache, answered_by=who,
                               progress=None if progress is None else progress(f"{split}, seed {seed}"))
             files.append(path)
         reports[split] = evaluate(items, files, "strict", out / split)
     return reports
+
+
+def set_aside_stale(path: Path, who: str) -> Path | None:
+    """Move a predictions file aside (``<name>.stale.jsonl``, replacing an older one) when any of its lines was
+    answered by another model or benchmark version than ``who``, or records no answerer: a re-run after retraining or
+    after a benchmark rebuilt at a new version asks the same ids anew, and resuming would score old answers against
+    new items. Returns where it went (None: nothing to move)."""
+    if not path.is_file():
+        return None
+    for line in path.open(encoding="utf-8"):
+        try:
+            stale = json.loads(line).get("answered_by") != who
+        except (json.JSONDecodeError, AttributeError):
+            continue  # a line cut by a crash: predict_items answers its item again
+        if stale:
+            return path.replace(path.with_name(f"{path.stem}.stale.jsonl"))
+    return None
 
 
 def _complete(path: Path, n: int) -> bool:
