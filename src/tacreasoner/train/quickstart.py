@@ -185,14 +185,18 @@ def set_aside_stale(path: Path, who: str) -> Path | None:
     new items. Returns where it went (None: nothing to move)."""
     if not path.is_file():
         return None
-    for line in path.open(encoding="utf-8"):
-        try:
-            stale = json.loads(line).get("answered_by") != who
-        except (json.JSONDecodeError, AttributeError):
-            continue  # a line cut by a crash: predict_items answers its item again
-        if stale:
-            return path.replace(path.with_name(f"{path.stem}.stale.jsonl"))
-    return None
+    with path.open(encoding="utf-8") as f:
+        stale = any(_answerer(line, who) != who for line in f)
+    return path.replace(path.with_name(f"{path.stem}.stale.jsonl")) if stale else None
+
+
+def _answerer(line: str, default: str) -> str | None:
+    """Who answered one prediction line (None: nobody recorded); ``default`` for a line cut by a crash, whose item
+    ``predict_items`` answers again anyway."""
+    try:
+        return json.loads(line).get("answered_by")
+    except (json.JSONDecodeError, AttributeError):
+        return default
 
 
 def _complete(path: Path, n: int) -> bool:
