@@ -22,7 +22,6 @@ data and no TSA item is trained on; only the val split is used by default (choic
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import random
 import sys
@@ -32,6 +31,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, publish, stamp
 from tsa_ceiling import textual_question
+from tsa_swap import swapped
 
 MIX = {"scenario": 0.6, "need": 0.15, "compare": 0.25, "documents": 0.0}
 """Share of each corpus family in a batch: scenario choices carry the skill asked for; ``documents`` (plain text,
@@ -76,15 +76,6 @@ def generate(model, tokenizer, prompts: list[list[dict[str, str]]], max_new_toke
                                  pad_token_id=tokenizer.pad_token_id or tokenizer.eos_token_id)
         replies += tokenizer.batch_decode(out[:, enc.input_ids.shape[1]:], skip_special_tokens=True)
     return [r.strip() for r in replies]
-
-
-def swapped(item):
-    """The item with its two videos (and what describes them) in the other order; the gold letter follows."""
-    meta = {**item.meta, "ranks": list(reversed(item.meta["ranks"])),
-            "scores": list(reversed(item.meta.get("scores", [])))}
-    letter = {"A": "B", "B": "A"}[item.gold["letter"]]
-    return dataclasses.replace(item, videos=list(reversed(item.videos)), meta=meta, answer=letter,
-                               gold={**item.gold, "letter": letter})
 
 
 def lenient(item, reply: str) -> tuple[bool, str | None]:

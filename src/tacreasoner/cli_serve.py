@@ -5,6 +5,7 @@ Registered on the main ``app`` of :mod:`tacreasoner.cli` (kept apart because tha
 
 from __future__ import annotations
 
+import importlib
 import json
 import sys
 from pathlib import Path
@@ -12,11 +13,12 @@ from typing import Annotated, Any
 
 import typer
 
-from tacreasoner.cli import QUICKSTART_DIR, _needs_train_extra, app, cli_errors, console
+from tacreasoner.cli import QUICKSTART_DIR, _at_least_one, _needs_train_extra, app, cli_errors, console
 
 DEFAULT_MODEL = QUICKSTART_DIR / "model"
 ModelDir = Annotated[Path, typer.Option("--model", help="Trained model directory (a training run's stage2/model).")]
 Host = Annotated[str, typer.Option(help="Address to listen on (0.0.0.0 for every interface).")]
+Port = Annotated[int, typer.Option(help="TCP port.")]
 
 
 def _load_engine(model: Path, name: str = "tacreasoner") -> Any:
@@ -29,10 +31,10 @@ def _load_engine(model: Path, name: str = "tacreasoner") -> Any:
     return TactileEngine.load(model, name=name)
 
 
-def _needs_serve_extra(command: str) -> None:
+def _needs_serve_extra(command: str, modules: tuple[str, ...] = ("fastapi", "uvicorn")) -> None:
     try:
-        import fastapi  # noqa: F401
-        import uvicorn  # noqa: F401
+        for module in modules:
+            importlib.import_module(module)
     except ImportError:
         raise ValueError(f'{command} needs the serve extra: pip install -e ".[train,serve]"') from None
 
@@ -98,7 +100,7 @@ def ask(
 def serve(
     model: ModelDir = DEFAULT_MODEL,
     host: Host = "127.0.0.1",
-    port: Annotated[int, typer.Option(help="TCP port.")] = 8000,
+    port: Port = 8000,
     name: Annotated[str, typer.Option(help="The model id clients send.")] = "tacreasoner",
     api_key: Annotated[str | None, typer.Option("--api-key", envvar="TACREASONER_API_KEY",
                                                 help="Require 'Authorization: Bearer KEY' (or set "
@@ -121,8 +123,7 @@ def serve(
     from tacreasoner.serve.openai_api import ServerSettings, create_app
 
     for value, option in ((max_batch, "--max-batch"), (max_pending, "--max-pending"), (max_videos, "--max-videos")):
-        if value < 1:
-            raise ValueError(f"{option} must be >= 1, got {value}")
+        _at_least_one(option, value)
     dirs = tuple(d.resolve() for d in allow_dir or [])
     for d in dirs:
         if not d.is_dir():
@@ -141,17 +142,14 @@ def serve(
 def demo(
     model: ModelDir = DEFAULT_MODEL,
     host: Host = "127.0.0.1",
-    port: Annotated[int, typer.Option(help="TCP port.")] = 7860,
+    port: Port = 7860,
     examples: Annotated[Path, typer.Option(help="Where the simulated example clips are made (once).")] =
         Path("runs/demo_examples"),
 ) -> None:
     """A web page: upload 1-3 tactile clips (or pick simulated ones), see what the sensor felt, ask, watch the
     reasoning stream."""
     _needs_train_extra("demo")
-    try:
-        import gradio  # noqa: F401
-    except ImportError:
-        raise ValueError('demo needs the serve extra: pip install -e ".[train,serve]"') from None
+    _needs_serve_extra("demo", ("gradio",))
     from tacreasoner.serve.demo import build_demo, example_clips
 
     engine = _load_engine(model)

@@ -21,6 +21,7 @@ from tacreasoner.evaluate.predict import (
     load_trained,
     predict_items,
     predictions_path,
+    set_aside_stale,
     shuffle_videos,
 )
 from tacreasoner.tasks.bench import BENCH_VERSION, load_bench
@@ -312,6 +313,21 @@ def test_evaluate_refuses_to_resume_answers_of_another_benchmark_version(model_d
     (copy / "bench.json").write_text(json.dumps({**info, "version": BENCH_VERSION - 1}))
     refused = runner.invoke(app, [*base, "--limit", "3"])
     assert refused.exit_code == 2 and f"v{BENCH_VERSION}, this run is" in refused.output, refused.output
+
+
+def test_stale_predictions_are_set_aside_not_resumed(tmp_path: Path) -> None:
+    """A re-run after retraining, or after the benchmark was rebuilt at a new version, asks the same ids anew: the old
+    answers move aside instead of being scored against the new items."""
+    path = tmp_path / "seed0.jsonl"
+    assert set_aside_stale(path, "me") is None  # nothing yet
+    lines = [{"id": "a", "prediction": "x", "answered_by": "me"}, {"id": "b", "prediction": "y", "answered_by": "me"}]
+    path.write_text("".join(json.dumps(r) + "\n" for r in lines) + '{"id": "c", "predic')  # a line cut by a crash
+    assert set_aside_stale(path, "me") is None and path.is_file(), "the same answerer resumes"
+    moved = set_aside_stale(path, "me v2")
+    assert moved == tmp_path / "seed0.stale.jsonl" and not path.exists()
+    assert moved.read_text().startswith('{"id": "a"'), "kept, not deleted"
+    path.write_text(json.dumps({"id": "a", "prediction": "x"}) + "\n")  # from before answers recorded who made them
+    assert set_aside_stale(path, "me") == moved and not path.exists()
 
 
 @pytest.fixture(scope="module")

@@ -152,20 +152,3 @@ def test_train_seed_over_two_processes_trains_with_the_same_global_batch(inputs:
     assert run["steps_done"] == config.stage2.steps
     assert Path(info["model"]).is_dir() and "stage2" in info["seconds"]
     assert train_seed(config, processes=2)["seconds"] == {}  # done: not redone
-
-
-def test_stale_predictions_are_set_aside_not_resumed(tmp_path: Path) -> None:
-    """A re-run after retraining, or after the benchmark was rebuilt at a new version, asks the same ids anew: the old
-    answers move aside instead of being scored against the new items."""
-    from tacreasoner.train.quickstart import set_aside_stale
-
-    path = tmp_path / "seed0.jsonl"
-    assert set_aside_stale(path, "me") is None  # nothing yet
-    lines = [{"id": "a", "prediction": "x", "answered_by": "me"}, {"id": "b", "prediction": "y", "answered_by": "me"}]
-    path.write_text("".join(json.dumps(r) + "\n" for r in lines) + '{"id": "c", "predic')  # a line cut by a crash
-    assert set_aside_stale(path, "me") is None and path.is_file(), "the same answerer resumes"
-    moved = set_aside_stale(path, "me v2")
-    assert moved == tmp_path / "seed0.stale.jsonl" and not path.exists()
-    assert moved.read_text().startswith('{"id": "a"'), "kept, not deleted"
-    path.write_text(json.dumps({"id": "a", "prediction": "x"}) + "\n")  # from before answers recorded who made them
-    assert set_aside_stale(path, "me") == moved and not path.exists()

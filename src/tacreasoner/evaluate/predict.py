@@ -25,7 +25,7 @@ import torch
 from tacreasoner.tasks.schema import QAItem
 
 __all__ = ["TOUCH_MODES", "answerer_id", "blank_video", "check_touch", "load_trained", "predict_items",
-           "predictions_path", "shuffle_videos"]
+           "predictions_path", "set_aside_stale", "shuffle_videos"]
 
 TOUCH_MODES = ("real", "blank", "shuffled")
 """What the model gets as touch: the item's own videos, a featureless clip, or other items' videos."""
@@ -196,6 +196,29 @@ def blank_video(video_config: Any) -> torch.Tensor:
 
 
 @torch.no_grad()
+def set_aside_stale(path: Path, who: str) -> Path | None:
+    """Move a predictions file aside (``<name>.stale.jsonl``, replacing an older one) when any of its lines was
+    answered by another model or benchmark version than ``who``, or records no answerer: a re-run after retraining or
+    after a benchmark rebuilt at a new version asks the same ids anew, and resuming would score old answers against
+    new items. Returns where it went (None: nothing to move). The quickstart's policy, which owns its folder;
+    :func:`predict_items` refuses such a file instead, since an ``--out`` given by hand may hold answers worth keeping
+    apart."""
+    if not path.is_file():
+        return None
+    with path.open(encoding="utf-8") as f:
+        stale = any(_answerer(line, who) != who for line in f)
+    return path.replace(path.with_name(f"{path.stem}.stale.jsonl")) if stale else None
+
+
+def _answerer(line: str, default: str) -> str | None:
+    """Who answered one prediction line (None: nobody recorded); ``default`` for a line cut by a crash, whose item
+    ``predict_items`` answers again anyway."""
+    try:
+        return json.loads(line).get("answered_by")
+    except (json.JSONDecodeError, AttributeError):
+        return default
+
+
 def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_root: str | os.PathLike[str],
                   out_path: str | os.PathLike[str], *, batch_size: int = 32, max_new_tokens: int = 256,
                   progress: Callable[[int, int], None] | None = None,

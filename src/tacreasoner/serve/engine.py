@@ -259,6 +259,19 @@ class TactileEngine:
         splitter = ReasoningSplitter()
         finish = "length"
         first_token: float | None = None
+
+        def advance(text: str, ended: bool) -> Iterator[Delta]:
+            """Show what of ``text`` no stop string can still claim (all of it once the reply ``ended``)."""
+            nonlocal shown, finish
+            safe, stopped = stopper.push(text)
+            if stopped:
+                finish, halt.requested = "stop", True
+            elif ended:
+                safe = text  # nothing is held back for a stop string any more
+            if len(safe) > len(shown):
+                yield from splitter.feed(safe[len(shown):])
+                shown = safe
+
         try:
             while (new := tokens.queue.get()) is not None:
                 first_token = first_token or time.perf_counter()
@@ -274,28 +287,14 @@ class TactileEngine:
                 text = self.processor.tokenizer.decode(ids, skip_special_tokens=True)
                 if text.endswith("\ufffd") and finish != "stop":  # half a multi-byte character: wait for the rest
                     continue
-                safe, stopped = stopper.push(text)
-                if stopped:
-                    finish, halt.requested = "stop", True
-                elif finish == "stop":
-                    safe = text  # the turn ended: nothing is held back for a stop string any more
-                if len(safe) > len(shown):
-                    yield from splitter.feed(safe[len(shown):])
-                    shown = safe
+                yield from advance(text, finish == "stop")
         finally:
             halt.requested = True
             worker.join()
         if failure:
             raise failure[0]
-        if finish != "stop":
-            text = self.processor.tokenizer.decode(ids, skip_special_tokens=True)
-            safe, stopped = stopper.push(text)
-            finish = "stop" if stopped else finish
-            if not stopped:
-                safe = text
-            if len(safe) > len(shown):
-                yield from splitter.feed(safe[len(shown):])
-                shown = safe
+        if finish != "stop":  # length, deadline or cancel: what was held back (a half character, a stop prefix)
+            yield from advance(self.processor.tokenizer.decode(ids, skip_special_tokens=True), True)
         yield from splitter.finish()
         done = time.perf_counter()
         reply = self._reply(shown, finish, prepared.prompt_tokens, len(ids), start, ready, first_token, done)

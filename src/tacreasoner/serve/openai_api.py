@@ -216,12 +216,12 @@ async def _events(job: Any, ident: str, model: str, include_usage: bool) -> Asyn
                 if include_usage:
                     yield _chunk(ident, model, {}, usage=_usage(piece))
             else:  # an exception from the model's thread: the stream ends with an error event
-                kind, code = ("server_error", "decode_timeout") if isinstance(piece, DecodeTimeout) else \
-                    ("server_error", None)
-                message = str(piece) if isinstance(piece, DecodeTimeout | RequestError) else "internal error"
-                if not isinstance(piece, DecodeTimeout | RequestError):
+                code = "decode_timeout" if isinstance(piece, DecodeTimeout) else None
+                told = isinstance(piece, DecodeTimeout | RequestError)
+                if not told:
                     log.error("streamed request failed", exc_info=piece)
-                yield f"data: {json.dumps({'error': {'message': message, 'type': kind, 'code': code}})}\n\n"
+                error = {"message": str(piece) if told else "internal error", "type": "server_error", "code": code}
+                yield f"data: {json.dumps({'error': error})}\n\n"
         yield "data: [DONE]\n\n"
     finally:
         job.cancelled.set()  # a client that went away stops the decoding it asked for

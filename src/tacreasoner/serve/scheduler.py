@@ -34,7 +34,6 @@ class _Job:
     stream: bool
     out: asyncio.Queue | asyncio.Future  # stream: pieces then None; else: the Reply or an exception
     cancelled: threading.Event = field(default_factory=threading.Event)
-    enqueued: float = field(default_factory=time.perf_counter)
 
 
 _STOP = object()

@@ -24,8 +24,7 @@ import yaml
 
 from tacreasoner.train.config import TrainConfig
 
-__all__ = ["QuickstartPaths", "distributed_config", "evaluate_seeds", "quickstart_config", "set_aside_stale",
-           "train_seed"]
+__all__ = ["QuickstartPaths", "distributed_config", "evaluate_seeds", "quickstart_config", "train_seed"]
 
 TINY_SETTINGS: dict[str, Any] = {
     "model": {"encoder": {"use_temporal": True, "question_conditioning": True, "tokens_per_video": 5,
@@ -155,7 +154,7 @@ def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tupl
                    batch_size: int = 48, max_new_tokens: int = 256, video_cache: Path | None = None,
                    progress: Callable[[str], Callable[[int, int], None]] | None = None) -> dict[str, Any]:
     """Answer each split with each seed's model; one report per split (mean ± std over seeds)."""
-    from tacreasoner.evaluate.predict import answerer_id, load_trained, predict_items
+    from tacreasoner.evaluate.predict import answerer_id, load_trained, predict_items, set_aside_stale
     from tacreasoner.evaluate.report import evaluate
     from tacreasoner.tasks.bench import load_bench
     from tacreasoner.train.data import bench_video_root
@@ -176,27 +175,6 @@ def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tupl
             files.append(path)
         reports[split] = evaluate(items, files, "strict", out / split)
     return reports
-
-
-def set_aside_stale(path: Path, who: str) -> Path | None:
-    """Move a predictions file aside (``<name>.stale.jsonl``, replacing an older one) when any of its lines was
-    answered by another model or benchmark version than ``who``, or records no answerer: a re-run after retraining or
-    after a benchmark rebuilt at a new version asks the same ids anew, and resuming would score old answers against
-    new items. Returns where it went (None: nothing to move)."""
-    if not path.is_file():
-        return None
-    with path.open(encoding="utf-8") as f:
-        stale = any(_answerer(line, who) != who for line in f)
-    return path.replace(path.with_name(f"{path.stem}.stale.jsonl")) if stale else None
-
-
-def _answerer(line: str, default: str) -> str | None:
-    """Who answered one prediction line (None: nobody recorded); ``default`` for a line cut by a crash, whose item
-    ``predict_items`` answers again anyway."""
-    try:
-        return json.loads(line).get("answered_by")
-    except (json.JSONDecodeError, AttributeError):
-        return default
 
 
 def _complete(path: Path, n: int) -> bool:
