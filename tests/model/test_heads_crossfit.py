@@ -95,6 +95,41 @@ def test_no_prompt_is_read_by_a_copy_fitted_on_its_object() -> None:
     assert all(r is not None for r in cross.readings) and sum(len(s) for s in seen) == 10
 
 
+def test_a_multi_video_prompt_is_read_by_a_copy_fitted_on_none_of_its_objects() -> None:
+    """Comparisons of two or three objects: the copy that reads a prompt saw no prompt touching any of its videos'
+    objects (not only its first video's); with the first-video rule a third of these prompts were read by a copy
+    fitted on their second or third object."""
+    g = torch.Generator().manual_seed(0)
+    n_objects, rows_, objects = 12, [], []
+    for _ in range(80):
+        k = 2 + int(torch.randint(0, 2, (1,), generator=g))
+        chosen = torch.randperm(n_objects, generator=g)[:k].tolist()
+        # each video carries its object's number, so a copy's fitted objects are known by value
+        rows_.append(torch.stack([torch.full((2, 4), float(o)) for o in chosen]))
+        objects.append([f"object{o}" for o in chosen])
+    rows = HeadRows(videos=rows_, targets=[0] * len(rows_))
+    checked: list[int] = []
+
+    class Spy:
+        name = "spy"
+
+        def fit_rows(self, fitted: HeadRows, seed: int = 0) -> dict:
+            self.fitted_objects = {float(x) for v in fitted.videos for x in v[:, 0, 0]}
+            return {}
+
+        def read_rows(self, read: HeadRows) -> list[torch.Tensor]:
+            for v in read.videos:
+                mine = {float(x) for x in v[:, 0, 0]}
+                assert not mine & self.fitted_objects, f"objects {mine & self.fitted_objects} were fitted on"
+                checked.append(1)
+            return [torch.zeros(1) for _ in read.videos]
+
+    cross = crossfit(Spy(), rows, objects, folds=6, seed=0)
+    assert sum(checked) + sum(r is None for r in cross.readings) == len(rows)
+    assert sum(checked) > 0.8 * len(rows)  # most prompts have a copy to read them
+    assert all(f["fitted_on"] > 0 for f in cross.folds if f["held_out"])
+
+
 def test_a_fold_with_nothing_to_fit_gives_no_verdict_and_says_why() -> None:
     rows, objects = _clip_rows(objects=4, clips=1)
     rows.targets = [torch.tensor([[-1, -1]])] * 3 + [rows.targets[3]]  # one labelled object only

@@ -2,9 +2,10 @@
 
 A head fitted on the training prompts and then read on those same prompts gives near-gold verdicts (its ridge
 fits read the train clips back at 90–100%), so Stage II would learn to trust a verdict that is far less reliable on
-unseen objects. Cross-fitting (as in double machine learning) splits the training **objects** into folds; the
-prompts of fold f (by the object of their first video) are read by a copy of the head fitted on the prompts that
-touch no object of fold f. Stage II trains on those readings; the head kept for inference is fitted on everything.
+unseen objects. Cross-fitting (as in double machine learning) splits the training **objects** into folds; a
+prompt whose videos' objects lie in the folds S is read by a copy of the head fitted on the prompts that touch no
+object of S (every video of the prompt counts, not only its first). Stage II trains on those readings; the head
+kept for inference is fitted on everything.
 """
 
 from __future__ import annotations
@@ -41,26 +42,28 @@ def object_folds(objects: Sequence[Sequence[str]], folds: int, seed: int) -> dic
 
 def crossfit(head: ReadoutHead, rows: HeadRows, objects: Sequence[Sequence[str]], folds: int = 5, seed: int = 0
              ) -> CrossFit:
-    """Read every prompt of ``rows`` with a copy of ``head`` fitted out of its fold (``objects``: per prompt the
-    object of each video, first first). ``head`` itself is left as it was: fit it on all rows afterwards for
-    inference."""
+    """Read every prompt of ``rows`` with a copy of ``head`` fitted on no object of that prompt (``objects``: per
+    prompt the object of each video). ``head`` itself is left as it was: fit it on all rows afterwards for
+    inference.
+
+    A prompt's objects may fall in several folds (a comparison of two objects); its copy is then fitted on the
+    prompts that touch none of those folds, so the verdict on a multi-video prompt never comes from a copy that saw
+    any of its videos' objects. One copy is fitted per distinct set of folds."""
     if len(objects) != len(rows):
         raise ValueError(f"got {len(rows)} prompts but objects for {len(objects)}")
     if any(len(o) == 0 for o in objects):
-        raise ValueError("every prompt needs the object of at least its first video")
+        raise ValueError("every prompt needs the object of each of its videos")
     fold_of = object_folds(objects, folds, seed)
-    home = [fold_of[o[0]] for o in objects]
+    touched = [frozenset(fold_of[x] for x in o) for o in objects]
     out = CrossFit(readings=[None] * len(rows))
-    for f in range(folds):
-        held = [i for i, h in enumerate(home) if h == f]
-        if not held:
-            continue
-        train = [i for i, o in enumerate(objects) if all(fold_of[x] != f for x in o)]
-        fold: dict[str, Any] = {"fold": f, "held_out": len(held), "fitted_on": len(train)}
+    for held_folds in sorted(set(touched), key=lambda s: (len(s), sorted(s))):
+        held = [i for i, s in enumerate(touched) if s == held_folds]
+        train = [i for i, s in enumerate(touched) if not s & held_folds]
+        fold: dict[str, Any] = {"folds": sorted(held_folds), "held_out": len(held), "fitted_on": len(train)}
         copy_ = copy.deepcopy(head)
         try:
-            fold["fit"] = copy_.fit_rows(rows.subset(train), seed=seed + f)
-        except ValueError as exc:  # nothing of this head's kind outside the fold: no verdict for its prompts
+            fold["fit"] = copy_.fit_rows(rows.subset(train), seed=seed + min(held_folds))
+        except ValueError as exc:  # nothing of this head's kind outside these folds: no verdict for its prompts
             fold["fit"] = f"not fitted: {exc}"
             out.folds.append(fold)
             continue
