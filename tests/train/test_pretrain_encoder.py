@@ -144,3 +144,90 @@ def test_cli_defaults_are_the_library_defaults() -> None:
     params = inspect.signature(pretrain_encoder_cmd).parameters
     assert (params["steps"].default, params["batch_size"].default, params["mask_ratio"].default) == \
         (DEFAULTS.steps, DEFAULTS.batch_size, DEFAULTS.mask_ratio)
+
+
+# ------------------------------------------------------------------ which clips pre-training reads (issue 37)
+
+
+def labelled_folder(root: Path) -> Path:
+    """A PhysiCLeAR-shaped folder: one object per split (train, val, test, unlabelled), two clips each."""
+    from tacreasoner.data.video import write_video
+
+    (root / "videos").mkdir(parents=True)
+    objects = {}
+    for k, split in enumerate(("train", "val", "test", "unlabeled")):
+        videos = []
+        for j in range(2):
+            rel = f"videos/{split}obj_{j}.mp4"
+            write_video(root / rel, blob_clip(2 * k + j).frames, fps=25)
+            videos.append(rel)
+        entry = {"split": split, "videos": videos}
+        if split != "unlabeled":
+            entry.update(name=f"a {split} object", hardness=k % 3, roughness=1, bumpiness=0)
+        objects[f"{split}obj"] = entry
+    (root / "labels.json").write_text(json.dumps({"objects": objects}))
+    return root
+
+
+def test_pretraining_reads_only_train_and_unlabelled_clips_by_default(tmp_path: Path) -> None:
+    from tacreasoner.train.pretrain_encoder import gather_pretraining_clips
+
+    folder = labelled_folder(tmp_path / "clips")
+    gathered = gather_pretraining_clips([folder], physiclear=False, min_frames=4)
+    assert gathered.splits == {"train": 2, "unlabelled": 2}
+    assert {c.object_id for c in gathered.clips} == {"trainobj", "unlabeledobj"}
+    asked = gather_pretraining_clips([folder], physiclear=False, min_frames=4, splits=["train", "val"])
+    assert asked.splits == {"train": 2, "val": 2}
+    # a folder of videos inside a labelled folder would bring val and test in unnoticed: refused
+    with pytest.raises(ValueError, match="inside the labelled folder"):
+        gather_pretraining_clips([folder / "videos"], physiclear=False)
+
+
+def test_the_run_records_the_splits_it_read(tmp_path: Path) -> None:
+    from tacreasoner.train.pretrain_encoder import gather_pretraining_clips, splits_seen
+
+    folder = labelled_folder(tmp_path / "clips")
+    honest = gather_pretraining_clips([folder], physiclear=False, min_frames=4)
+    out = pretrain_encoder(honest.clips, tmp_path / "honest", encoder_config=CFG, steps=2, batch_size=2,
+                           progress=False, masked_config=SMALL_DECODER, samples_per_clip=1, workers=1)
+    run_config = json.loads((out / "pretrain_config.json").read_text())
+    assert run_config["splits_seen"] == {"train": 2, "unlabelled": 2} and run_config["evaluation_clips_seen"] == []
+    asked = gather_pretraining_clips([folder], physiclear=False, min_frames=4, splits=["train", "val", "test"])
+    out = pretrain_encoder(asked.clips, tmp_path / "asked", encoder_config=CFG, steps=2, batch_size=2,
+                           progress=False, masked_config=SMALL_DECODER, samples_per_clip=1, workers=1)
+    assert splits_seen(out) == {"test": 2, "train": 2, "val": 2}
+    assert json.loads((out / "pretrain_config.json").read_text())["evaluation_clips_seen"] == ["test", "val"]
+
+
+def test_simulated_clips_take_their_split_from_the_benchmark(small_sim_dataset: Path, tmp_path: Path) -> None:
+    from tacreasoner.tasks.bench import build_bench
+    from tacreasoner.train.pretrain_encoder import gather_pretraining_clips
+
+    with pytest.raises(ValueError, match="carry no split; pass --bench"):
+        gather_pretraining_clips([small_sim_dataset], physiclear=False)
+    bench = tmp_path / "bench"
+    build_bench("sim", small_sim_dataset, bench, seed=0)
+    split_of = json.loads((bench / "bench.json").read_text())["splits"]
+    gathered = gather_pretraining_clips([small_sim_dataset], physiclear=False, bench=bench)
+    assert gathered.clips and set(gathered.splits) == {"train"}
+    assert {split_of[c.object_id] for c in gathered.clips} == {"train"}
+    # every train object's clips, of every sensor style (the held-out style belongs to test objects only)
+    assert {c.object_id for c in gathered.clips} == {o for o, s in split_of.items() if s == "train"}
+    everything = gather_pretraining_clips([small_sim_dataset], physiclear=False,
+                                          splits=["train", "val", "test", "unlabelled"])
+    assert everything.splits == {"every split": len(everything.clips)} and len(everything.clips) > len(gathered.clips)
+
+
+def test_cli_pretrains_on_train_objects_and_says_what_it_read(tmp_path: Path) -> None:
+    folder = labelled_folder(tmp_path / "clips")
+    out = tmp_path / "enc"
+    result = CliRunner().invoke(app, ["pretrain-encoder", "--data", str(folder), "--no-physiclear", "--out", str(out),
+                                      "--steps", "2", "--batch-size", "2"])
+    assert result.exit_code == 0, result.output
+    assert "4 of 8 clips (train 2, unlabelled 2)" in " ".join(result.output.split())
+    assert json.loads((out / "pretrain_config.json").read_text())["evaluation_clips_seen"] == []
+    asked = CliRunner().invoke(app, ["pretrain-encoder", "--data", str(folder), "--no-physiclear", "--out",
+                                     str(tmp_path / "enc2"), "--steps", "2", "--batch-size", "2",
+                                     "--splits", "train,val"])
+    assert asked.exit_code == 0, asked.output
+    assert "reads val clips" in asked.output

@@ -1,7 +1,8 @@
 """Pre-train the appearance branch by masked video reconstruction on any tactile video (no labels needed).
 
-Read top to bottom: gather clips → preprocess each clip once into a few jittered samples held in
-memory (decoding is the slow part on CPU, so it is never repeated per step) → train
+Read top to bottom: gather clips (train and unlabelled objects only, unless asked otherwise) → preprocess each
+clip once into a few jittered samples held in memory (decoding is the slow part on CPU, so it is never repeated per
+step) → train
 :class:`~tacreasoner.model.masked_video.MaskedVideoModel` with AdamW and a warmup + cosine schedule,
 checkpointing atomically → save the encoder with ``save_pretrained``.
 
@@ -12,7 +13,8 @@ Output directory::
 
     config.json, model.safetensors   the AppearanceEncoder (AppearanceEncoder.from_pretrained)
     video_processing.json            the VideoProcessingConfig its inputs were prepared with
-    pretrain_config.json             settings of the run (encoder, decoder, optimisation, data counts)
+    pretrain_config.json             settings of the run (encoder, decoder, optimisation, data counts, and the
+                                     clips per split it read: ``splits_seen``, ``evaluation_clips_seen``)
     pretrain_log.jsonl               {"step", "loss", "lr", "elapsed_s"} every log_every steps
     checkpoints/step-<n>/            resumable training state (encoder + decoder + optimizer)
 """
@@ -22,6 +24,7 @@ from __future__ import annotations
 import json
 import os
 import time
+from collections import Counter
 from collections.abc import Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -32,6 +35,7 @@ import numpy as np
 import torch
 
 from tacreasoner.data.clip import TactileClip
+from tacreasoner.data.readers import UNLABELLED
 from tacreasoner.data.readers import VIDEO_SUFFIXES as READER_VIDEO_SUFFIXES
 from tacreasoner.model.appearance import AppearanceEncoder
 from tacreasoner.model.encoder_config import TactileEncoderConfig
@@ -47,8 +51,8 @@ from tacreasoner.train.state import (
 )
 from tacreasoner.train.threads import free_threads
 
-__all__ = ["DEFAULTS", "PretrainDefaults", "gather_pretraining_clips", "preprocess_clips",
-           "pretrain_encoder", "video_config_for"]
+__all__ = ["DEFAULTS", "DEFAULT_SPLITS", "UNSPLIT", "PretrainDefaults", "PretrainingClips",
+           "gather_pretraining_clips", "preprocess_clips", "pretrain_encoder", "splits_seen", "video_config_for"]
 
 CHECKPOINTS = "checkpoints"
 LOG_NAME = "pretrain_log.jsonl"
@@ -77,47 +81,151 @@ DEFAULTS = PretrainDefaults()
 # ---------------------------------------------------------------------------------------------- data
 
 
-def gather_pretraining_clips(paths: Iterable[str | os.PathLike[str]] = (), *, physiclear: bool = True,
-                             min_frames: int = 8) -> tuple[list[TactileClip], list[str]]:
-    """Clips from simulator datasets (a directory with ``manifest.jsonl``), video files and folders of videos,
-    plus every PhysiCLeAR clip (all splits: labels are not used) when ``physiclear`` and it is present.
+DEFAULT_SPLITS = ("train", UNLABELLED)
+UNSPLIT = "every split"
+"""The split recorded for simulated clips read without a benchmark (asked for with every split)."""
+"""What encoder pre-training reads by default: the training objects and objects without labels, never val or test."""
 
-    Returns the clips and one line per source saying what was taken.
-    """
+
+@dataclass
+class PretrainingClips:
+    """The clips pre-training will read, one line per source saying what was taken, and how many clips of each
+    split (clips of loose video folders count as unlabelled)."""
+
+    clips: list[TactileClip]
+    notes: list[str]
+
+    @property
+    def splits(self) -> dict[str, int]:
+        return dict(sorted(Counter(c.split or UNLABELLED for c in self.clips).items()))
+
+
+def gather_pretraining_clips(paths: Iterable[str | os.PathLike[str]] = (), *, physiclear: bool = True,
+                             min_frames: int = 8, splits: Iterable[str] = DEFAULT_SPLITS,
+                             bench: str | os.PathLike[str] | None = None) -> PretrainingClips:
+    """Clips of the chosen ``splits`` (default: train and unlabelled objects only) from simulator datasets (a
+    directory with ``manifest.jsonl``), labelled folders in PhysiCLeAR's layout (``labels.json``), loose video files
+    and folders (no split known: unlabelled), plus PhysiCLeAR's when ``physiclear`` and it is present.
+
+    A simulator dataset's clips carry no split of their own: ``bench`` (a ``build-bench`` directory built from
+    it) names each object's split. Without it a simulator dataset is refused unless every split is asked for, so
+    an encoder never silently pre-trains on the clips it is later scored on."""
     from tacreasoner.data.readers import default_physiclear_dir, load_clips, read_physiclear, read_sim_dataset
 
+    wanted = _check_splits(splits)
     clips: list[TactileClip] = []
     notes: list[str] = []
     for raw in paths:
         path = Path(raw)
         if path.is_dir() and (path / "manifest.jsonl").is_file():
             found = list(read_sim_dataset(path, min_frames=min_frames))
-            notes.append(f"{path}: {len(found)} simulated clips")
+            kept = _keep(_with_bench_splits(found, path, bench, wanted), wanted)
+            notes.append(f"{path}: {len(kept)} of {len(found)} simulated clips ({_split_text(kept)})")
+        elif path.is_dir() and (path / "labels.json").is_file():
+            found = list(read_physiclear(path, min_frames=min_frames))
+            kept = _keep(found, wanted)
+            notes.append(f"{path}: {len(kept)} of {len(found)} clips ({_split_text(kept)})")
         elif path.is_dir():
+            _refuse_inside_labelled_folder(path)
             videos = sorted(p for p in path.rglob("*") if p.is_file() and p.suffix.lower() in VIDEO_SUFFIXES)
             if not videos:
-                raise ValueError(f"{path}: no simulator manifest.jsonl and no video files "
+                raise ValueError(f"{path}: no simulator manifest.jsonl, no labels.json and no video files "
                                  f"({', '.join(VIDEO_SUFFIXES)}) inside")
             report = load_clips(videos, min_frames=min_frames)
-            found = list(report.clips)
-            notes.append(f"{path}: {len(found)} of {len(videos)} videos" +
+            kept = _loose(list(report.clips), path, wanted)
+            notes.append(f"{path}: {len(kept)} of {len(videos)} videos, no split known: unlabelled" +
                          (f" ({len(report.skipped)} skipped)" if report.skipped else ""))
         elif path.is_file():
-            report = load_clips([path], on_error="raise", min_frames=min_frames)
-            found = list(report.clips)
-            notes.append(f"{path}: 1 video")
+            _refuse_inside_labelled_folder(path.parent)
+            kept = _loose(list(load_clips([path], on_error="raise", min_frames=min_frames).clips), path, wanted)
+            notes.append(f"{path}: 1 video, no split known: unlabelled")
         else:
             raise FileNotFoundError(f"{path}: no such file or directory")
-        clips += found
+        clips += kept
     if physiclear:
         root = default_physiclear_dir()
         if root is None:
             notes.append("PhysiCLeAR: not found (set TACREASONER_PHYSICLEAR); skipped")
         else:
             found = list(read_physiclear(root, min_frames=min_frames))
-            clips += found
-            notes.append(f"PhysiCLeAR {root}: {len(found)} real clips (all splits; labels unused)")
-    return clips, notes
+            kept = _keep(found, wanted)
+            clips += kept
+            notes.append(f"PhysiCLeAR {root}: {len(kept)} of {len(found)} real clips ({_split_text(kept)}; "
+                         "labels unused)")
+    return PretrainingClips(clips, notes)
+
+
+def _check_splits(splits: Iterable[str]) -> frozenset[str]:
+    wanted = frozenset("unlabelled" if s.strip().lower() in ("unlabeled", "unlabelled") else s.strip().lower()
+                       for s in splits if s.strip())
+    if not wanted:
+        raise ValueError("encoder pre-training: no split chosen (the default is train and unlabelled)")
+    return wanted
+
+
+def _keep(clips: list[TactileClip], wanted: frozenset[str]) -> list[TactileClip]:
+    return [c for c in clips if c.split == UNSPLIT or (c.split or UNLABELLED) in wanted]
+
+
+def _loose(clips: list[TactileClip], path: Path, wanted: frozenset[str]) -> list[TactileClip]:
+    if UNLABELLED not in wanted:
+        raise ValueError(f"{path}: loose videos have no split and count as unlabelled, which --splits leaves out")
+    for clip in clips:
+        clip.split = UNLABELLED
+    return clips
+
+
+def _split_text(clips: list[TactileClip]) -> str:
+    counts = Counter(c.split or UNLABELLED for c in clips)
+    return ", ".join(f"{split} {n}" for split, n in sorted(counts.items())) or "none"
+
+
+def _refuse_inside_labelled_folder(path: Path) -> None:
+    """A folder of videos inside a labelled folder would bring its val and test clips in unnoticed."""
+    for parent in (path, *path.resolve().parents):
+        if (parent / "labels.json").is_file():
+            raise ValueError(f"{path}: inside the labelled folder {parent} (labels.json): pass --data {parent} so "
+                             "that only the chosen splits' objects (train and unlabelled by default) are read")
+
+
+def _with_bench_splits(clips: list[TactileClip], data: Path, bench: str | os.PathLike[str] | None,
+                       wanted: frozenset[str]) -> list[TactileClip]:
+    """Each simulated clip's split from ``bench``'s object → split map (held-out-sensor clips are test objects')."""
+    if bench is None:
+        if {"train", "val", "test", UNLABELLED} <= wanted:
+            for clip in clips:
+                clip.split = UNSPLIT
+            return clips
+        raise ValueError(f"{data}: simulated clips carry no split; pass --bench <a build-bench directory made from "
+                         f"it> so that only its train objects are read, or ask for every split "
+                         f"(--splits train,val,test,unlabelled: recorded in pretrain_config.json)")
+    info_path = Path(bench) / "bench.json"
+    if not info_path.is_file():
+        raise FileNotFoundError(f"{info_path}: no such file (--bench must be a `tacreasoner build-bench` directory)")
+    info = json.loads(info_path.read_text(encoding="utf-8"))
+    split_of = info.get("splits")
+    if not isinstance(split_of, dict) or not split_of:
+        raise ValueError(f"{info_path}: field 'splits' (object → split) is missing or empty")
+    built_from = info.get("data")
+    if built_from and Path(built_from).resolve() != data.resolve():
+        raise ValueError(f"{info_path}: was built from {built_from}, not from {data.resolve()}")
+    unknown = sorted({c.object_id for c in clips} - set(split_of))
+    if unknown:
+        raise ValueError(f"{info_path}: field 'splits' has no split for {len(unknown)} object(s) of {data} "
+                         f"(e.g. {unknown[0]!r}); rebuild the benchmark from this dataset")
+    for clip in clips:
+        clip.split = str(split_of[clip.object_id])
+    return clips
+
+
+def splits_seen(encoder_dir: str | os.PathLike[str]) -> dict[str, int] | None:
+    """Clips per split an encoder was pre-trained on (``pretrain_config.json``); None when it does not say (an
+    encoder from before the split was recorded, or not pre-trained here)."""
+    path = Path(encoder_dir) / RUN_CONFIG_NAME
+    if not path.is_file():
+        return None
+    seen = json.loads(path.read_text(encoding="utf-8")).get("splits_seen")
+    return dict(seen) if isinstance(seen, dict) else None
 
 
 def video_config_for(encoder_config: TactileEncoderConfig,
@@ -245,7 +353,9 @@ def pretrain_encoder(
         raise ValueError("pretrain_encoder: no clips to pre-train on")
     checkpoint_every = checkpoint_every or max(50, steps // 4)
     workers = min(2, os.cpu_count() or 1) if workers is None else max(1, int(workers))
-    run = {"encoder": encoder_config.to_dict(), "masked_video": masked_config.to_dict(),
+    seen = dict(sorted(Counter(c.split or UNLABELLED for c in clips).items()))
+    run = {"splits_seen": seen, "evaluation_clips_seen": sorted(set(seen) - set(DEFAULT_SPLITS)),
+           "encoder": encoder_config.to_dict(), "masked_video": masked_config.to_dict(),
            "video_processing": video_config.to_dict(), "batch_size": batch_size, "lr": lr, "seed": seed,
            "samples_per_clip": samples_per_clip, "weight_decay": weight_decay, "warmup_ratio": warmup_ratio}
 
