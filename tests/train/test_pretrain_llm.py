@@ -144,3 +144,15 @@ def test_untrained_vocabulary_is_recorded_and_becomes_new_token_rows(finished: P
             untrained_token_ids(finished)
     finally:
         (finished / UNTRAINED_TOKENS_FILE).write_text(json.dumps({"ids": ids}))
+
+
+def test_bf16_is_chosen_only_where_the_cpu_has_native_bf16() -> None:
+    """oneDNN calls bf16 supported on every AVX-512 CPU, where it is emulated and several times slower than float32:
+    the CPU's flags decide."""
+    from tacreasoner.train.pretrain_llm import bf16_supported
+
+    assert not bf16_supported("processor: 0\nflags\t\t: fpu sse avx2 avx512f avx512bw avx512_vnni\n")
+    assert bf16_supported("processor: 0\nflags\t\t: fpu avx512f avx512_bf16\n")
+    assert bf16_supported("processor: 0\nflags\t\t: fpu amx_bf16 amx_tile\n")
+    assert bf16_supported("processor\t: 0\nFeatures\t: fp asimd sve bf16 i8mm\n")
+    assert not bf16_supported("processor\t: 0\nFeatures\t: fp asimd\n")
