@@ -55,6 +55,8 @@ def octopi_markdown(table: dict[str, Any], *, label: str, split: str) -> str:
     columns = [c for c, _ in OCTOPI_COLUMNS]
     lines = [f"| model ({split}) | " + " | ".join(columns) + " |", "|---|" + "---|" * len(columns)]
     lines.append(f"| {label} | " + " | ".join(_cell(table[c]) for c in columns) + " |")
+    lines.append("| replies in the asked form % | " + " | ".join(
+        f"{100 * (1 - table[c]['parse_failure_rate']):.1f}" if table[c] else "–" for c in columns) + " |")
     lines.append("| n items | " + " | ".join(str(table[c]["n"]) if table[c] else "–" for c in columns) + " |")
     lines.append("| chance | " + " | ".join(f"{100 * table[c]['chance']:.1f}" if table[c] else "–"
                                            for c in columns) + " |")
@@ -63,4 +65,6 @@ def octopi_markdown(table: dict[str, Any], *, label: str, split: str) -> str:
                      + " | ".join(f"{row[c]:.1f}" if c in row else "–" for c in columns) + " |")
     return "\n".join(lines) + ("\n\nAccuracy in % with the Wilson 95% interval over items (± std over runs when "
                                "several); the project's strict scorer; chance is uniform guessing among valid "
-                               "answers. Octopi's task names: PSS = SOI, POM = OSC, PSR = TSA here.\n")
+                               "answers. Replies in the asked form: the strict scorer could read an answer of the "
+                               "asked kind (a level word of the asked property, a letter for PSR, ...). Octopi's task "
+                               "names: PSS = SOI, POM = OSC, PSR = TSA here.\n")

@@ -295,3 +295,40 @@ def load_bench(bench_dir: str | Path, split: str = "test") -> tuple[dict, list[Q
         available = sorted(p.stem for p in root.glob("*.jsonl"))
         raise FileNotFoundError(f"{path}: no such split; available: {', '.join(available)}")
     return info, read_jsonl(path)
+
+
+def reword_bench(bench_dir: str | Path, out_dir: str | Path | None = None, *, wording: str = "heldout",
+                 splits: Sequence[str] = ("val", "test")) -> dict[str, dict[str, int]]:
+    """A benchmark whose ``splits`` hold their items asked in the ``wording`` set's wordings
+    (``tasks.paraphrase``; held-out by default: words no training used), items without such a wording left out;
+    written to ``out_dir`` (in place when None). Returns the items per split and task. Never writes a train split:
+    a paraphrase benchmark is for evaluation only."""
+    from tacreasoner.tasks.formats import write_jsonl
+    from tacreasoner.tasks.paraphrase import reword_items
+
+    src = Path(bench_dir)
+    out = Path(out_dir) if out_dir is not None else src
+    info = json.loads((src / BENCH_INFO).read_text()) if (src / BENCH_INFO).is_file() else None
+    if info is None:
+        raise FileNotFoundError(f"{src}: not a benchmark directory (no {BENCH_INFO}; run `tacreasoner build-bench`)")
+    if "train" in splits:
+        raise ValueError("reword_bench: the train split is never re-worded into an evaluation benchmark")
+    counts: dict[str, dict[str, int]] = {}
+    written: dict[str, list[QAItem]] = {}
+    for split in splits:
+        path = src / (HELDOUT_SENSOR_FILE if split == "test_heldout_sensor" else f"{split}.jsonl")
+        if not path.is_file():
+            continue
+        _, items = load_bench(src, split)
+        written[split] = reword_items(items, wording)
+        counts[split] = dict(sorted(Counter(i.task for i in written[split]).items()))
+    if not written:
+        raise ValueError(f"{src}: none of the splits {', '.join(splits)} is there to re-word")
+    out.mkdir(parents=True, exist_ok=True)
+    for split, items in written.items():
+        write_jsonl(items, out / (HELDOUT_SENSOR_FILE if split == "test_heldout_sensor" else f"{split}.jsonl"))
+    for stale in (p for p in out.glob("*.jsonl") if p.stem not in written and out != src):
+        stale.unlink()
+    info.update(wording=wording, counts=counts, name=f"{info.get('name', info.get('source'))}, {wording} wordings")
+    atomic_write_text(out / BENCH_INFO, json.dumps(info, indent=2))
+    return counts

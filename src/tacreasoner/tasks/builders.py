@@ -239,7 +239,8 @@ class _Context:
             videos=videos if videos is not None else [_video(c) for c in clips],
             objects=[c.object_id for c in clips], vocabulary=self.vocabulary, options=list(options),
             split=self.split, source=self.source,
-            meta={"template": template.id, "object_names": [c.object_name for c in clips], **(meta or {})},
+            meta={"template": template.id, "slots": dict(slots), "object_names": [c.object_name for c in clips],
+                  **(meta or {})},
         ))
         return True
 

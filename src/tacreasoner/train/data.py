@@ -15,6 +15,7 @@ examples an uninterrupted single-process run would.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -139,6 +140,29 @@ def _touchcot(path: Path, root: Path, items: Sequence[QAItem] = ()) -> list[Trai
     return out
 
 
+def _reworded(items: Sequence[QAItem], letters: bool = True) -> list[QAItem]:
+    from tacreasoner.tasks.paraphrase import reword_items
+
+    return reword_items(items, "train", letters=letters)
+
+
+def _reworded_touchcot(examples: Sequence[TrainExample], items: Sequence[QAItem], root: Path
+                       ) -> list[TrainExample]:
+    """A copy of each TouchCoT example whose item (same question, same videos) has a same-answer training wording,
+    asked in it."""
+    def videos(item: QAItem) -> tuple[VideoKey, ...]:
+        return tuple(video_key(v, root, f"item {item.id!r}") for v in item.videos)
+
+    reworded = {i.id.removesuffix("-train"): i.question for i in _reworded(items, letters=False)}
+    item_of = {(i.question, videos(i)): i.id for i in items if i.id in reworded}
+    out = []
+    for e in examples:
+        item_id = item_of.get((e.question, e.videos))
+        if item_id is not None:
+            out.append(dataclasses.replace(e, key=f"{e.key}-train", question=reworded[item_id]))
+    return out
+
+
 def _answer_only(item: QAItem) -> str:
     return f"<answer>{item.answer}</answer>"
 
@@ -158,21 +182,27 @@ def _video_readings(items: Sequence[QAItem], root: Path) -> list[TrainExample]:
 
 def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None = None, stage2_data: str = "touchcot",
                   tasks: Sequence[str] | None = None, max_items: int | None = None,
-                  video_readings: bool = False, comparisons: bool = False) -> list[TrainExample]:
-    """The examples of ``stage`` (see the module doc); TSA is never among them."""
+                  video_readings: bool = False, comparisons: bool = False, paraphrases: bool = False,
+                  ) -> list[TrainExample]:
+    """The examples of ``stage`` (see the module doc); TSA is never among them. ``paraphrases``: each item is also
+    asked in one of its training wordings (``tasks.paraphrase``)."""
     bench = Path(bench)
     root, items = train_items(bench)
+    items = [i for i in items if i.task != "TSA"]
     if stage == 1:
         wanted = (*STAGE1_TASKS, *COMPARISON_TASKS) if comparisons else STAGE1_TASKS
-        examples = _from_items([i for i in items if i.task in wanted], root, _answer_only)
+        chosen = [i for i in items if i.task in wanted]
+        examples = _from_items(chosen + (_reworded(chosen) if paraphrases else []), root, _answer_only)
         if video_readings:
             examples += _video_readings(items, root)
     elif stage2_data == "plain":
-        examples = _from_items([i for i in items if i.task != "TSA"], root, _answer_only)
+        examples = _from_items(items + (_reworded(items) if paraphrases else []), root, _answer_only)
     else:
         if touchcot is None:
             raise ValueError("data.touchcot: Stage II on TouchCoT needs the training JSONL from build-cot")
         examples = [e for e in _touchcot(Path(touchcot), root, items) if e.task != "TSA"]
+        if paraphrases:  # the reasoning and answer stay: only wordings whose answer form is the template's
+            examples += _reworded_touchcot(examples, items, root)
     if tasks is not None:
         examples = [e for e in examples if e.task in set(tasks)]
     if max_items is not None:
@@ -280,14 +310,36 @@ class VideoBank:
                                     dtype=torch.long)
 
     @torch.no_grad()
-    def cache_appearance(self, tactile_encoder: Any, batch_size: int = 64) -> None:
-        """Run the frozen appearance ViT once over every video (identical to running it each step)."""
+    def cache_appearance(self, tactile_encoder: Any, batch_size: int = 64,
+                         cache_dir: str | Path | None = None) -> torch.Tensor | None:
+        """Run the frozen appearance branch once over every video (identical to running it each step); returns the
+        tokens before standardisation. ``cache_dir`` keeps them on disk, keyed by the video and by the branch's
+        weights and pooling, so the next stage, seed or variant on the same encoder reads them back."""
         if self.pixels is None:
-            return
+            return None
+        raw = self.appearance_tokens(tactile_encoder, batch_size, standardized=False, cache_dir=cache_dir)
+        self.appearance = tactile_encoder.standardize(raw)
+        return raw
+
+    @torch.no_grad()
+    def appearance_tokens(self, tactile_encoder: Any, batch_size: int = 64, *, standardized: bool = True,
+                          cache_dir: str | Path | None = None) -> torch.Tensor:
+        """The frozen appearance branch's tokens (``appearance_tokens``) of every video of the bank, in its order."""
+        assert self.pixels is not None
+        keys = sorted(self.index, key=self.index.__getitem__)
+        files = _appearance_files(keys, self.video_config, tactile_encoder, cache_dir)
+        cached = [_load_cached(f) for f in files]
+        todo = [i for i, hit in enumerate(cached) if hit is None]
         param = next(tactile_encoder.appearance.parameters())
-        out = [tactile_encoder.appearance_tokens(self.pixels[i:i + batch_size].to(param.device, param.dtype)).cpu()
-               for i in range(0, len(self.pixels), batch_size)]
-        self.appearance = torch.cat(out)
+        for start in range(0, len(todo), batch_size):
+            chunk = todo[start:start + batch_size]
+            pixels = self.pixels[torch.tensor(chunk)].to(param.device, param.dtype)
+            tokens = tactile_encoder.appearance_tokens(pixels, standardized=False).float().cpu().numpy()
+            for i, array in zip(chunk, tokens, strict=True):
+                cached[i] = array
+                _save_array(files[i], array)
+        raw = torch.from_numpy(np.stack(cached)).to(param.dtype)
+        return tactile_encoder.standardize(raw) if standardized else raw
 
     def batch(self, keys: Sequence[VideoKey]) -> dict[str, torch.Tensor]:
         assert self.pixels is not None and self.sensors is not None
@@ -355,6 +407,31 @@ def _cache_file(key: VideoKey, video_config: Any, cache_dir: Path | None) -> Pat
     name = json.dumps([str(Path(path).resolve()), stat.st_size, stat.st_mtime_ns, start, end,
                        video_config.to_dict()], sort_keys=True)
     return cache_dir / f"{hashlib.sha256(name.encode()).hexdigest()[:24]}.npy"
+
+
+def _appearance_files(keys: Sequence[VideoKey], video_config: Any, tactile_encoder: Any,
+                      cache_dir: str | Path | None) -> list[Path | None]:
+    """Per video the disk-cache file of its appearance tokens: the video's own key plus a digest of the frozen
+    branch's weights and token pooling (another encoder never reads them)."""
+    if cache_dir is None:
+        return [None] * len(keys)
+    digest = hashlib.sha256(str(tactile_encoder.config.tokens_per_video).encode())
+    for name, tensor in sorted(tactile_encoder.appearance.state_dict().items()):
+        digest.update(name.encode())
+        digest.update(tensor.detach().float().cpu().numpy().tobytes())
+    folder = Path(cache_dir) / "appearance" / digest.hexdigest()[:16]
+    return [folder / f.name if (f := _cache_file(k, video_config, Path(cache_dir))) is not None else None
+            for k in keys]
+
+
+def _save_array(file: Path | None, array: np.ndarray) -> None:
+    if file is None:
+        return
+    file.parent.mkdir(parents=True, exist_ok=True)
+    tmp = file.with_suffix(f".{os.getpid()}.tmp")
+    with tmp.open("wb") as f:
+        np.save(f, array)
+    os.replace(tmp, file)
 
 
 def _load_cached(file: Path | None) -> np.ndarray | None:

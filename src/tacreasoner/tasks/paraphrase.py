@@ -1,0 +1,178 @@
+"""Other wordings of the benchmark's questions: more for training, held-out ones for a paraphrase evaluation.
+
+A model trained only on the benchmark's templates knows those wordings, not questions in general (asked "Is this
+object soft or hard?" in words it never saw, a PhysiCLeAR model answered "real"). ``paraphrases/train.yaml`` holds
+wordings that training mixes in (``data.paraphrases``); ``paraphrases/heldout.yaml`` holds wordings that no training
+ever sees, asked by ``tacreasoner paraphrase-bench`` / ``evaluate-physiclear --wording heldout`` to report accuracy
+on unseen wordings beside the templates'. :func:`check_disjoint` (and a test) keeps the held-out wordings apart from
+every benchmark template and training wording.
+
+An item is re-worded by rendering another wording of its template's kind with the slots the builder stored
+(``meta["slots"]``): the videos, gold and answer stay, except that a wording marked ``answer: letter`` lists the
+options with letters and its answer becomes the letter ("the second object" → "B").
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+from tacreasoner.tasks.schema import ORDINALS, QAItem
+from tacreasoner.tasks.templating import KINDS, Template, TemplateError, _check_slots, load_templates
+from tacreasoner.yamlfile import line_of, read_yaml
+
+__all__ = ["PARAPHRASE_DIR", "WORDINGS", "Paraphrase", "check_disjoint", "heldout_wording_of", "load_paraphrases",
+           "normalise", "reword", "reword_items"]
+
+PARAPHRASE_DIR = Path(__file__).parent / "paraphrases"
+WORDINGS = ("train", "heldout")
+FIELDS = frozenset({"id", "text", "attribute", "answer"})
+LETTER_TASKS = ("SFD", "SOI")
+"""Tasks whose ``the first/second/third object`` answers a lettered wording turns into ``A``/``B``/``C``."""
+
+
+@dataclass(frozen=True)
+class Paraphrase:
+    template: Template
+    attribute: str | None = None
+    """Only for items about this attribute (the text then needs no ``{attribute}`` slot)."""
+    letter: bool = False
+    """The options are listed with letters; the answer is the letter."""
+
+
+def normalise(text: str) -> str:
+    """A wording with its slots and placeholders blanked, lower case, single spaces: what "the same wording" means."""
+    text = re.sub(r"\{[a-z_]+\}", "{}", text.lower()).replace("<tactile>", "<t>")
+    return " ".join(re.sub(r"[^a-z0-9{}<>]+", " ", text).split())
+
+
+def _parse(path: Path) -> dict[str, tuple[Paraphrase, ...]]:
+    data, lines = read_yaml(path)
+    if not isinstance(data, dict):
+        raise TemplateError(f"{path}: top level must map template kinds to lists of wordings")
+    out: dict[str, list[Paraphrase]] = {}
+    for kind_name, entries in data.items():
+        if kind_name not in KINDS:
+            raise TemplateError(f"{path}:{line_of(lines, ())}: unknown template kind {kind_name!r}")
+        if not isinstance(entries, list):
+            raise TemplateError(f"{path}: {kind_name!r} must be a list of wordings")
+        for i, entry in enumerate(entries):
+            where = f"{path}:{line_of(lines, (kind_name, i))}"
+            if not isinstance(entry, dict) or set(entry) - FIELDS or not {"id", "text"} <= set(entry):
+                raise TemplateError(f"{where}: a wording is a mapping with id and text (optional: attribute, answer)")
+            attribute = entry.get("attribute")
+            letter = entry.get("answer") == "letter"
+            if entry.get("answer") not in (None, "letter"):
+                raise TemplateError(f"{where}: answer must be 'letter' when given, got {entry.get('answer')!r}")
+            template = Template(str(entry["id"]), kind_name, str(entry["text"]).strip(), str(path),
+                                line_of(lines, (kind_name, i)))
+            kind = KINDS[kind_name]
+            if attribute is not None:  # the wording names its property itself
+                kind = dataclasses.replace(kind, required=kind.required - {"attribute"})
+            _check_slots(template.text, kind, template.where)
+            out.setdefault(kind_name, []).append(Paraphrase(template, attribute, letter))
+    return {k: tuple(v) for k, v in out.items()}
+
+
+@lru_cache(maxsize=4)
+def load_paraphrases(wording: str, directory: str | None = None) -> Mapping[str, tuple[Paraphrase, ...]]:
+    """The ``train`` or ``heldout`` wordings by template kind."""
+    if wording not in WORDINGS:
+        raise ValueError(f"unknown wording set {wording!r}; choose from {', '.join(WORDINGS)}")
+    return _parse(Path(directory or PARAPHRASE_DIR) / f"{wording}.yaml")
+
+
+def heldout_wording_of(question: str) -> str | None:
+    """The id of the held-out wording ``question`` is asked in (slots filled with anything), else None: how a test
+    proves a training question never uses one."""
+    for kind in load_paraphrases("heldout").values():
+        for p in kind:
+            if _pattern(p.template.text).fullmatch(question.strip()):
+                return p.template.id
+    return None
+
+
+@lru_cache(maxsize=256)
+def _pattern(text: str) -> re.Pattern[str]:
+    parts = re.split(r"(\{[a-z_]+\})", text)
+    return re.compile("".join(".+?" if re.fullmatch(r"\{[a-z_]+\}", part) else re.escape(part) for part in parts),
+                      re.DOTALL)
+
+
+def check_disjoint(directory: str | None = None) -> None:
+    """Held-out wordings must differ from every benchmark template and training wording (and ids be unique)."""
+    seen: dict[str, str] = {}
+    for kind in load_templates().values():
+        for t in kind:
+            seen[normalise(t.text)] = t.where
+    for p in (p for kind in load_paraphrases("train", directory).values() for p in kind):
+        seen.setdefault(normalise(p.template.text), p.template.where)
+    ids = {t.id for kind in load_templates().values() for t in kind} | \
+          {p.template.id for kind in load_paraphrases("train", directory).values() for p in kind}
+    for p in (p for kind in load_paraphrases("heldout", directory).values() for p in kind):
+        if normalise(p.template.text) in seen:
+            raise TemplateError(f"{p.template.where}: the held-out wording is also used for training "
+                                f"({seen[normalise(p.template.text)]})")
+        if p.template.id in ids:
+            raise TemplateError(f"{p.template.where}: id {p.template.id!r} is also a training wording's")
+
+
+@lru_cache(maxsize=1)
+def _kind_of_template() -> dict[str, str]:
+    return {t.id: kind for kind, ts in load_templates().items() for t in ts}
+
+
+def _choices(item: QAItem, wording: str, letters: bool) -> tuple[Paraphrase, ...]:
+    kind = _kind_of_template().get(str(item.meta.get("template", "")))
+    if kind is None:
+        return ()
+    attribute = item.gold.get("attribute") if isinstance(item.gold, dict) else None
+    options = load_paraphrases(wording).get(kind, ())
+    return tuple(p for p in options if (p.attribute is None or p.attribute == attribute) and (letters or not p.letter))
+
+
+def reword(item: QAItem, wording: str, salt: str = "", *, letters: bool = True) -> QAItem | None:
+    """``item`` asked in one of the ``wording`` set's wordings for its kind (chosen by a hash of its id and
+    ``salt``); None when the set has none for it. The item needs the slots its builder stored. ``letters=False``
+    leaves out the wordings whose answer is a letter (for answers that cannot change, e.g. written reasoning)."""
+    choices = _choices(item, wording, letters)
+    if not choices:
+        return None
+    slots = item.meta.get("slots")
+    if not isinstance(slots, dict):
+        raise ValueError(f"item {item.id!r}: no stored slots (meta.slots): rebuild the benchmark with this version "
+                         "to re-word its questions")
+    digest = hashlib.sha256(f"{item.id}|{wording}|{salt}".encode()).digest()
+    chosen = choices[int.from_bytes(digest[:8], "big") % len(choices)]
+    answer = item.answer
+    if chosen.letter:
+        if item.task not in LETTER_TASKS or item.gold.get("kind", "which") != "which":
+            return None
+        answer = "ABC"[int(item.gold["index"])]
+        if answer != "ABC"[ORDINALS.index(item.answer.split()[1])]:
+            raise ValueError(f"item {item.id!r}: answer {item.answer!r} does not match its gold index")
+    question = chosen.template.render(**{k: v for k, v in slots.items() if k in _slot_names(chosen)})
+    return dataclasses.replace(item, question=question, answer=answer,
+                               meta={**item.meta, "template": chosen.template.id, "wording": wording,
+                                     "answer_form": "letter" if chosen.letter else "text"})
+
+
+def _slot_names(p: Paraphrase) -> set[str]:
+    from tacreasoner.tasks.templating import slot_names
+
+    return slot_names(p.template.text)
+
+
+def reword_items(items: Sequence[QAItem], wording: str, salt: str = "", *, letters: bool = True) -> list[QAItem]:
+    """Every item the wording set can re-word, re-worded (ids get a ``-<wording>`` suffix); the others left out."""
+    out = []
+    for item in items:
+        new = reword(item, wording, salt, letters=letters)
+        if new is not None:
+            out.append(dataclasses.replace(new, id=f"{item.id}-{wording}"))
+    return out
