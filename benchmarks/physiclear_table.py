@@ -1,8 +1,9 @@
 """The PhysiCLeAR results table in Octopi's columns: several rows (baselines, the probe, models) side by side.
 
 Each ``--row LABEL=PATH`` is either a report directory with per-item scored records (``scored/*.jsonl``, from
-``tacreasoner score``, ``evaluate`` or ``evaluate-physiclear``; several files = several seeds, mean ± std) or the JSON
-of ``benchmarks/physiclear_probe.py`` (description columns only). Accuracy with Wilson 95% intervals, chance, and
+``tacreasoner score``, ``evaluate`` or ``evaluate-physiclear``; several files = several seeds, mean ± std), the JSON
+of ``benchmarks/physiclear_probe.py``, or ``benchmarks/results/encoder_candidates.json#CANDIDATE`` (that candidate's
+frozen-encoder probe on val; description columns only). Accuracy with Wilson 95% intervals, chance, and
 Octopi's published test-object rows beneath (a different split: Octopi's test objects are held out from this copy).
 
     python benchmarks/physiclear_table.py --split val --name physiclear_val \\
@@ -26,10 +27,24 @@ def row_table(path: Path) -> tuple[dict, int]:
     from tacreasoner.evaluate.octopi import OCTOPI_COLUMNS, octopi_table
     from tacreasoner.evaluate.report import load_scored, summarize
 
+    path, _, candidate = str(path).partition("#")
+    path = Path(path)
+    if path.suffix == ".json" and candidate:  # benchmarks/encoder_candidates.json#<candidate>: its val probe
+        from tacreasoner.evaluate.stats import wilson_interval
+
+        found = json.loads(path.read_text())["results"][candidate]
+        n = found["val_n"]
+        cells = {}
+        for c, acc in found["val"].items():
+            low, high = wilson_interval(round(acc * n), n)
+            cells[c] = {"n": n, "accuracy": acc, "ci_low": low, "ci_high": high}
+        return {c: ({**cells[c], "runs": 1, "std": float("nan"), "task": t, "parse_failure_rate": 0.0,
+                     "chance": 1 / 27 if c == "combined" else 1 / 3} if c in cells else None)
+                for c, t in OCTOPI_COLUMNS}, 1
     if path.suffix == ".json":
         val = json.loads(path.read_text())["val"]
-        return {c: ({**val[c], "runs": 1, "std": float("nan"), "task": t} if c in val else None)
-                for c, t in OCTOPI_COLUMNS}, 1
+        return {c: ({**val[c], "runs": 1, "std": float("nan"), "task": t, "parse_failure_rate": 0.0}
+                     if c in val else None) for c, t in OCTOPI_COLUMNS}, 1
     files = sorted((path / "scored").glob("*.jsonl"))
     if not files:
         raise SystemExit(f"{path}: no scored/*.jsonl (run `tacreasoner score` or `evaluate` first)")

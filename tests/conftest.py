@@ -29,3 +29,58 @@ def _free_port() -> int:
 def free_port() -> Callable[[], int]:
     """A TCP port nobody listens on now, per call: a rendezvous address for a launched process group."""
     return _free_port
+
+
+def write_physiclear_folder(root: Path, splits: dict[str, int], clips_per_object: int = 2, frames: int = 12,
+                            size: tuple[int, int] = (48, 64), seed: int = 0) -> Path:
+    """A synthetic folder in PhysiCLeAR's layout (labels.json + videos/): ``splits`` maps a split name to its number
+    of objects; each object gets hardness/roughness/bumpiness ranks cycling through 0–2 (so every task finds
+    objects to compare) and clips of a gel pressed by a blob whose size and texture follow the ranks. No shared
+    data needed: features that read PhysiCLeAR are tested on a plain clone with it."""
+    import json
+
+    import numpy as np
+
+    from tacreasoner.data.video import write_video
+
+    rng = np.random.default_rng(seed)
+    (root / "videos").mkdir(parents=True, exist_ok=True)
+    objects, k = {}, 0
+    h, w = size
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    for split, count in splits.items():
+        for i in range(count):
+            name = f"{split}_object_{i}"
+            ranks = (k % 3, (k // 3) % 3, (k + 1) % 3)
+            k += 1
+            videos = []
+            for j in range(clips_per_object):
+                gel = np.full((frames, h, w, 3), 110.0, np.float32) + rng.normal(0, 2, (1, h, w, 3))
+                cy, cx = rng.uniform(0.3 * h, 0.7 * h), rng.uniform(0.3 * w, 0.7 * w)
+                for t in range(frames // 3, frames):
+                    r = (3 + 2 * ranks[0]) * min(1.0, (t - frames // 3 + 1) / 3)
+                    blob = np.exp(-((yy - cy) ** 2 + (xx - cx) ** 2) / (2 * r * r))
+                    texture = np.sin(xx * (0.5 + ranks[1])) * 6 * blob
+                    gel[t] += (blob * 40)[..., None] + texture[..., None]
+                rel = f"videos/{name}_{j}.mp4"
+                write_video(root / rel, np.clip(gel, 0, 255).astype(np.uint8), fps=25)
+                videos.append(rel)
+            entry = {"split": split, "videos": videos}
+            if split not in ("unlabeled", "unlabelled"):
+                entry.update(name=f"object {k}", hardness=ranks[0], roughness=ranks[1], bumpiness=ranks[2])
+            objects[name] = entry
+    (root / "labels.json").write_text(json.dumps({"objects": objects}))
+    return root
+
+
+@pytest.fixture(scope="session")
+def physiclear_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A small synthetic PhysiCLeAR-shaped folder: 9 train, 4 val, 3 test and 2 unlabelled objects."""
+    return write_physiclear_folder(tmp_path_factory.mktemp("physiclear"),
+                                   {"train": 9, "val": 4, "test": 3, "unlabeled": 2})
+
+
+@pytest.fixture
+def make_physiclear_folder() -> Callable[..., Path]:
+    """:func:`write_physiclear_folder`, for a test that needs its own layout."""
+    return write_physiclear_folder

@@ -191,7 +191,7 @@ def _stage(stages: list, name: str):
 def test_quickstart_pretrains_the_encoder_while_the_background_llm_finishes(tmp_path: Path) -> None:
     """The encoder's stage comes before the wait for the LLM, and both before training."""
     names = [stage.name for stage in cli._training_stages(tmp_path / "qs", 0, 1, 1, None)]
-    assert names.index("pretrain-encoder") < names.index("pretrain-llm") < names.index("train")
+    assert names.index("encoder") < names.index("pretrain-llm") < names.index("train")
 
 
 def fake_pretraining(monkeypatch: pytest.MonkeyPatch, *extra: str) -> None:

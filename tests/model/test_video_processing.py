@@ -44,6 +44,34 @@ def test_salient_and_phase_sampling_and_the_seeded_jitter() -> None:
     assert np.array_equal(preprocess_video(frames, phase), preprocess_video(frames, base))
 
 
+def test_contact_sampling_takes_the_frames_of_strongest_contact() -> None:
+    from tacreasoner.data.sampling import sample_indices
+
+    frames = np.full((30, 32, 32, 3), 120, np.uint8)
+    for t, size in ((5, 4), (12, 14), (13, 16), (14, 15), (20, 6)):  # an imprint, biggest at frames 12-14
+        frames[t, 16 - size // 2:16 + size // 2, 16 - size // 2:16 + size // 2] = 200
+    assert sample_indices(30, 3, "contact", frames=frames).tolist() == [12, 13, 14]
+    with pytest.raises(ValueError, match="'contact' needs frames"):
+        sample_indices(30, 3, "contact")
+    config = VideoProcessingConfig(num_frames=3, image_size=(32, 32), sampling="contact", std=1.0, mean=0.0)
+    assert np.allclose(preprocess_video(frames, config)[1], (frames[13] - 120.0).transpose(2, 0, 1) / 255 + 0.5)
+
+
+def test_kept_background_and_per_channel_normalisation() -> None:
+    frames = _frames(5)
+    imagenet = VideoProcessingConfig(num_frames=5, image_size=(24, 32), background="keep",
+                                     mean=[0.485, 0.456, 0.406], std=[0.229, 0.224, 0.225])
+    out = preprocess_video(frames, imagenet)
+    expected = (frames[2] / 255.0 - np.array([0.485, 0.456, 0.406])) / np.array([0.229, 0.224, 0.225])
+    assert np.allclose(out[2], expected.transpose(2, 0, 1), atol=1e-5)
+    again = VideoProcessingConfig.from_dict(imagenet.to_dict())
+    assert again == imagenet and again.to_dict()["mean"] == [0.485, 0.456, 0.406]
+    with pytest.raises(ValueError, match="background 'none' is not one of"):
+        VideoProcessingConfig(background="none")
+    with pytest.raises(ValueError, match="one number or three"):
+        VideoProcessingConfig(mean=[0.5, 0.5])
+
+
 def test_bad_inputs_and_settings_are_named() -> None:
     with pytest.raises(ValueError, match="expected uint8 frames"):
         preprocess_video(np.zeros((4, 8, 8, 3), dtype=np.float32))

@@ -14,6 +14,13 @@ from typer.testing import CliRunner
 from tacreasoner.train.config import TrainConfig, apply_override, load_train_config
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
+
+
+def config_file(name: str) -> Path:
+    """A repository config under configs/, or one shipped inside the package (the PhysiCLeAR recipe's)."""
+    from tacreasoner.train.config import shipped_config
+
+    return shipped_config(name) or CONFIGS / f"{name}.yaml"
 runner = CliRunner()
 
 
@@ -171,14 +178,16 @@ def test_bad_overrides_are_refused_naming_the_key(tmp_path: Path) -> None:
 def test_every_shipped_config_is_tested() -> None:
     tested = {"tiny-cpu", "qwen2.5-7b", "qwen2.5-14b", "smollm2-135m", "smollm2-135m-touchcot", "smollm2-135m-cpu",
               "smollm2-135m-heads-cpu", "physiclear-smollm2-cpu"}
-    training = {p.stem for p in CONFIGS.glob("*.yaml") if not p.stem.startswith("teacher-")}
+    from tacreasoner.train.config import SHIPPED_CONFIGS
+
+    training = {p.stem for p in CONFIGS.glob("*.yaml") if not p.stem.startswith("teacher-")} | set(SHIPPED_CONFIGS)
     assert training == tested
 
 
 @pytest.mark.parametrize("name", ["tiny-cpu", "qwen2.5-7b", "qwen2.5-14b", "smollm2-135m", "smollm2-135m-touchcot",
                                   "smollm2-135m-cpu", "smollm2-135m-heads-cpu", "physiclear-smollm2-cpu"])
 def test_the_shipped_configs_load_check_and_round_trip(name: str) -> None:
-    config = load_train_config(CONFIGS / f"{name}.yaml")
+    config = load_train_config(config_file(name))
     config.check()
     assert TrainConfig.from_dict(config.to_dict()) == config  # what the DDP test hands its workers
 
@@ -187,7 +196,7 @@ def test_the_shipped_configs_load_check_and_round_trip(name: str) -> None:
                                   "physiclear-smollm2-cpu"])
 def test_the_smollm2_configs_are_the_paper_core_on_the_llm_get_folder(name: str) -> None:
     """No read-out heads, and room for the longest TouchCoT example (234 SmolLM2 tokens)."""
-    config = load_train_config(CONFIGS / f"{name}.yaml")
+    config = load_train_config(config_file(name))
     assert config.model.llm == "runs/smollm2" and config.model.system_prompt
     encoder = config.model.encoder
     assert encoder["use_temporal"] and encoder["question_conditioning"]
@@ -213,7 +222,7 @@ def test_the_smollm2_recipes_hold_what_was_chosen_on_val() -> None:
 @pytest.mark.parametrize(("name", "llm", "steps"), [("qwen2.5-7b", "Qwen/Qwen2.5-7B-Instruct", 10000),
                                                     ("qwen2.5-14b", "Qwen/Qwen2.5-14B-Instruct", 10000)])
 def test_the_paper_configs_hold_the_paper_settings(name: str, llm: str, steps: int) -> None:
-    config = load_train_config(CONFIGS / f"{name}.yaml")
+    config = load_train_config(config_file(name))
     assert config.model.llm == llm and config.model.dtype == "bfloat16" and config.model.gradient_checkpointing
     assert config.model.appearance
     assert (config.lora.r, config.lora.alpha, config.lora.dropout) == (128, 256, 0.05)
@@ -345,14 +354,28 @@ def test_set_reads_exponent_numbers_without_a_dot_as_floats() -> None:
 
 def test_the_heads_and_physiclear_variants_change_only_what_they_say() -> None:
     """smollm2-135m-heads-cpu: the CPU recipe with the heads on; physiclear-smollm2-cpu: the CPU recipe on
-    PhysiCLeAR's benchmark (plain answers, so no TouchCoT file)."""
+    PhysiCLeAR's benchmark (plain answers, so no TouchCoT file) with the EfficientNet-Lite0 appearance encoder."""
     cpu = load_train_config(CONFIGS / "smollm2-135m-cpu.yaml").to_dict()
     heads = load_train_config(CONFIGS / "smollm2-135m-heads-cpu.yaml").to_dict()
-    real = load_train_config(CONFIGS / "physiclear-smollm2-cpu.yaml").to_dict()
+    real = load_train_config(config_file("physiclear-smollm2-cpu")).to_dict()
     assert heads["model"]["encoder"]["cross_video"] == 3 and heads["model"]["encoder"]["clip_reader"] is True
-    for variant, changed in ((heads, {"output_dir", "model"}), (real, {"output_dir", "data"})):
+    for variant, changed in ((heads, {"output_dir", "model"}), (real, {"output_dir", "data", "model"})):
         assert {k for k in cpu if cpu[k] != variant[k]} == changed
     assert {k for k in cpu["model"] if cpu["model"][k] != heads["model"][k]} == {"encoder"}
+    # the real-data recipe's appearance branch is the pretrained backbone (`encoder get`), not the simulated ViT
+    assert {k for k in cpu["model"] if cpu["model"][k] != real["model"][k]} <= {"appearance", "encoder"}
+    assert real["model"]["appearance"] == "runs/effnet"
+    encoder_changes = {k for k in {*cpu["model"]["encoder"], *real["model"]["encoder"]}
+                       if cpu["model"]["encoder"].get(k) != real["model"]["encoder"].get(k)}
+    assert encoder_changes <= {"standardize_appearance"}
     assert {k for k in cpu["data"] if cpu["data"][k] != real["data"][k]} == {"bench", "touchcot", "video_cache"}
     assert real["data"]["bench"] == "runs/physiclear/bench" and real["data"]["touchcot"] is None
 
+
+
+def test_a_shipped_config_loads_by_name_from_any_directory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    config = load_train_config("physiclear-smollm2-cpu")
+    assert config.model.appearance == "runs/effnet" and config.data.stage2_data == "plain"
+    with pytest.raises(FileNotFoundError, match="shipped one by name: physiclear-smollm2-cpu"):
+        load_train_config("physiclear-smollm2-gpu")

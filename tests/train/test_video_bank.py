@@ -63,3 +63,34 @@ def test_an_undecodable_video_names_its_file(tmp_path: Path, workers: int) -> No
     paths[5].write_bytes(b"not a video")
     with pytest.raises(ValueError, match=f"{paths[5].name}: cannot decode training video"):
         _bank([(str(p), None, None) for p in paths], workers=workers)
+
+
+def test_appearance_tokens_are_kept_on_disk_per_encoder(tmp_path: Path) -> None:
+    """The frozen branch's tokens of every video, computed once and read back by the next stage or seed; another
+    encoder (other weights) never reads them, and standardisation is applied on top of the raw tokens kept."""
+    from tacreasoner.model.encoder_config import TactileEncoderConfig
+    from tacreasoner.model.tactile_encoder import DynamicTactileEncoder
+
+    keys = _keys(_clips(tmp_path, 3))
+    bank = _bank(keys)
+    config = TactileEncoderConfig(num_frames=4, image_size=(16, 16), patch_size=8, hidden_size=16, num_layers=1,
+                                  num_heads=2, fusion_heads=2, temporal_hidden_size=16, tokens_per_video=3)
+    torch.manual_seed(0)
+    encoder = DynamicTactileEncoder(config, question_dim=8).eval()
+    raw = bank.cache_appearance(encoder, cache_dir=tmp_path / "cache")
+    assert raw is not None and raw.shape == (len(bank.index), 3, 16)
+    files = list((tmp_path / "cache" / "appearance").rglob("*.npy"))
+    assert len(files) == len(bank.index)
+    calls: list[int] = []
+    original = encoder.appearance.forward
+    encoder.appearance.forward = lambda *a, **k: calls.append(1) or original(*a, **k)
+    assert torch.equal(bank.cache_appearance(encoder, cache_dir=tmp_path / "cache"), raw) and not calls
+    other = DynamicTactileEncoder(config, question_dim=8).eval()  # new random weights: its own tokens
+    assert not torch.equal(bank.cache_appearance(other, cache_dir=tmp_path / "cache"), raw)
+    assert len(list((tmp_path / "cache" / "appearance").iterdir())) == 2
+    standardized = config.replace(standardize_appearance=True)
+    encoder.config = standardized
+    encoder.set_appearance_statistics(raw)
+    bank.cache_appearance(encoder, cache_dir=tmp_path / "cache")
+    flat = bank.appearance.reshape(-1, 16).double()
+    assert flat.mean(0).abs().max() < 1e-4 and (flat.std(0) - 1).abs().max() < 1e-3

@@ -4,6 +4,8 @@ Sampling methods (all return k sorted indices; repeats only when the clip has fe
 
 * ``uniform``: evenly spaced over the clip, first and last frame included (VTV-LLM's 16 frames).
 * ``salient``: the k frames that change most from the previous frame (Octopi), in temporal order.
+* ``contact``: the k frames of strongest contact (most gel changed against the first, untouched frame), in
+  temporal order: the frames where the imprint and its texture show best.
 * ``phase``: k spread over the contact phases present (press, hold, slide/rotate, release, …) in
   proportion to their length with at least one each, plus at most one no-contact frame (the
   reference), so a short release or hold is never missed.
@@ -32,7 +34,7 @@ __all__ = [
     "subtract_background",
 ]
 
-SAMPLING_METHODS = ("uniform", "salient", "phase")
+SAMPLING_METHODS = ("uniform", "salient", "phase", "contact")
 CONTACT_PHASES = ("press", "hold", "slide", "rotate", "dynamic", "release")
 """Known phase names in temporal order; any other label except ``no_contact`` also counts as contact."""
 NO_CONTACT = "no_contact"
@@ -46,15 +48,15 @@ def sample_indices(n_frames: int, k: int, method: str = "uniform", *, frames: np
                    phases: Sequence[str] | np.ndarray | None = None, seed: int | None = None) -> np.ndarray:
     """k sorted frame indices (int64) chosen by ``method``; see the module docstring.
 
-    ``frames`` is needed by ``salient``, ``phases`` (one label per frame) by ``phase``. With ``seed``
-    set, ``uniform`` and ``phase`` draw one random frame per equal segment instead of the segment's
-    fixed position (training-time augmentation); ``salient`` is deterministic either way.
+    ``frames`` is needed by ``salient`` and ``contact``, ``phases`` (one label per frame) by ``phase``. With
+    ``seed`` set, ``uniform`` and ``phase`` draw one random frame per equal segment instead of the segment's
+    fixed position (training-time augmentation); ``salient`` and ``contact`` are deterministic either way.
     """
     n_frames, k = _positive_int(n_frames, "n_frames"), _positive_int(k, "k")
     if method not in SAMPLING_METHODS:
         raise ValueError(f"unknown sampling method {method!r}; choose from {', '.join(SAMPLING_METHODS)}")
-    if method == "salient" and frames is None:
-        raise ValueError("method 'salient' needs frames= (T×H×W×3) to measure motion")
+    if method in ("salient", "contact") and frames is None:
+        raise ValueError(f"method {method!r} needs frames= (T×H×W×3) to measure {method}")
     if method == "phase" and phases is None:
         raise ValueError("method 'phase' needs phases= (one label per frame; see detect_contact_phases)")
     if frames is not None and len(frames) != n_frames:
@@ -73,6 +75,9 @@ def sample_indices(n_frames: int, k: int, method: str = "uniform", *, frames: np
         motion = frame_motion(np.asarray(frames))
         # Stable sort on −motion: ties go to the earlier frame, so the choice is reproducible.
         return np.sort(np.argsort(-motion, kind="stable")[:k]).astype(np.int64)
+    if method == "contact":
+        level = contact_level(np.asarray(frames))
+        return np.sort(np.argsort(-level, kind="stable")[:k]).astype(np.int64)
     return _phase_indices(np.asarray(phases, dtype=object), k, rng)
 
 

@@ -101,18 +101,18 @@ class RetrievalSummary:
 
 
 def load_encoder(encoder_dir: str | os.PathLike[str]) -> tuple[Any, Any]:
-    """The frozen appearance encoder of a ``pretrain-encoder`` folder and the video processing its inputs need
-    (``video_processing.json`` when the folder has it, else the encoder's frame count and size with the defaults,
-    which is what a model built on it uses)."""
-    from tacreasoner.model.appearance import CONFIG_NAME, AppearanceEncoder
+    """The frozen appearance encoder of a ``pretrain-encoder`` or ``encoder get`` folder and the video processing its
+    inputs need (``video_processing.json`` when the folder has it, else the encoder's frame count and size with the
+    defaults, which is what a model built on it uses)."""
+    from tacreasoner.model.appearance import CONFIG_NAME, load_appearance
     from tacreasoner.model.video_processing import VideoProcessingConfig
     from tacreasoner.train.pretrain_encoder import VIDEO_CONFIG_NAME, video_config_for
 
     directory = Path(encoder_dir)
     if not (directory / CONFIG_NAME).is_file():
         raise FileNotFoundError(f"{directory}: not an appearance encoder folder (no {CONFIG_NAME}; give the output "
-                                f"of `tacreasoner pretrain-encoder`)")
-    encoder = AppearanceEncoder.from_pretrained(directory).eval()
+                                f"of `tacreasoner pretrain-encoder` or `tacreasoner encoder get`)")
+    encoder = load_appearance(directory).eval()
     video = None
     if (directory / VIDEO_CONFIG_NAME).is_file():
         video = VideoProcessingConfig.from_dict(json.loads((directory / VIDEO_CONFIG_NAME).read_text()))

@@ -21,7 +21,8 @@ from tacreasoner.jsonl import read_json_object
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 
 __all__ = ["CONFIG_NAME", "WEIGHTS_NAME", "AppearanceEncoder", "TransformerBlock", "TubeletEmbedding",
-           "init_vit_weights", "load_safetensors_strict", "num_parameters", "patchify", "sinusoid_table"]
+           "build_appearance", "init_vit_weights", "load_appearance", "load_safetensors_strict", "num_parameters",
+           "patchify", "save_appearance", "sinusoid_table"]
 
 CONFIG_NAME = "config.json"
 WEIGHTS_NAME = "model.safetensors"
@@ -206,16 +207,7 @@ class AppearanceEncoder(nn.Module):
     # ------------------------------------------------------------------ save / load (HF conventions)
     def save_pretrained(self, save_directory: str | os.PathLike[str]) -> Path:
         """``config.json`` (the encoder config) + ``model.safetensors``; returns the directory."""
-        from safetensors.torch import save_file
-
-        out = Path(save_directory)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / CONFIG_NAME).write_text(json.dumps(self.config.to_dict(), indent=2) + "\n", encoding="utf-8")
-        state = {k: v.detach().contiguous().cpu() for k, v in self.state_dict().items()}
-        tmp = out / f".{WEIGHTS_NAME}.tmp"
-        save_file(state, str(tmp), metadata={"format": "pt"})
-        os.replace(tmp, out / WEIGHTS_NAME)
-        return out
+        return save_appearance(self, save_directory)
 
     @classmethod
     def from_pretrained(cls, directory: str | os.PathLike[str], *, dtype: torch.dtype | None = None,
@@ -224,14 +216,51 @@ class AppearanceEncoder(nn.Module):
 
         ``config`` overrides the saved config (e.g. another ``num_frames``: the weights do not depend on it).
         """
-        directory = Path(directory)
-        if config is None:
-            config = _read_config(directory)
-        model = cls(config)
-        state = load_safetensors_strict(directory)
-        _check_state(model.state_dict(), state, directory / WEIGHTS_NAME)
-        model.load_state_dict(state)
-        return model.to(dtype) if dtype is not None else model
+        model = load_appearance(directory, dtype=dtype, config=config)
+        if not isinstance(model, cls):
+            raise ValueError(f"{directory}: holds a {config_backbone(model)} backbone, not the ViT")
+        return model
+
+
+def config_backbone(model: nn.Module) -> str:
+    return getattr(getattr(model, "config", None), "backbone", "vit")
+
+
+def build_appearance(config: TactileEncoderConfig) -> nn.Module:
+    """The appearance branch ``config.backbone`` names, freshly initialised (the ViT) or unloaded (a backbone)."""
+    if config.backbone == "efficientnet_lite0":
+        from tacreasoner.model.efficientnet import EfficientNetAppearance
+
+        return EfficientNetAppearance(config)
+    return AppearanceEncoder(config)
+
+
+def save_appearance(model: nn.Module, save_directory: str | os.PathLike[str]) -> Path:
+    """Any appearance branch as ``config.json`` (its encoder config) + ``model.safetensors``; returns the directory."""
+    from safetensors.torch import save_file
+
+    out = Path(save_directory)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / CONFIG_NAME).write_text(json.dumps(model.config.to_dict(), indent=2) + "\n", encoding="utf-8")
+    state = {k: v.detach().contiguous().cpu() for k, v in model.state_dict().items()}
+    tmp = out / f".{WEIGHTS_NAME}.tmp"
+    save_file(state, str(tmp), metadata={"format": "pt"})
+    os.replace(tmp, out / WEIGHTS_NAME)
+    return out
+
+
+def load_appearance(directory: str | os.PathLike[str], *, dtype: torch.dtype | None = None,
+                    config: TactileEncoderConfig | None = None) -> nn.Module:
+    """The appearance branch saved in ``directory`` (the ViT or a backbone, as its config.json says); every key and
+    shape is checked. ``config`` overrides the saved config."""
+    directory = Path(directory)
+    if config is None:
+        config = _read_config(directory)
+    model = build_appearance(config)
+    state = load_safetensors_strict(directory)
+    _check_state(model.state_dict(), state, directory / WEIGHTS_NAME)
+    model.load_state_dict(state)
+    return model.to(dtype) if dtype is not None else model
 
 
 def _read_config(directory: Path) -> TactileEncoderConfig:

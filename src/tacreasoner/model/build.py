@@ -13,7 +13,8 @@ from tacreasoner.model.modeling import TacReasonerForCausalLM
 from tacreasoner.model.processing import PROCESSOR_CONFIG_NAME, TacReasonerProcessor
 from tacreasoner.model.tokenizer import TACTILE_PAD, prepare_tokenizer
 
-__all__ = ["UNTRAINED_TOKENS_FILE", "build_model", "load_model", "save_model", "untrained_token_ids"]
+__all__ = ["UNTRAINED_TOKENS_FILE", "appearance_video_settings", "build_model", "load_model", "save_model",
+           "untrained_token_ids"]
 
 UNTRAINED_TOKENS_FILE = "untrained_tokens.json"
 
@@ -27,7 +28,8 @@ def build_model(llm: str | os.PathLike[str] | PreTrainedModel, *, tokenizer: Pre
 
     The tokenizer (``llm``'s own by default) gets the tactile token, reasoning tags and a chat
     template where missing; the rows of tokens it gains are recorded as ``new_token_ids`` so Stage I
-    trains them. ``appearance``: a ``pretrain-encoder`` output directory; its ViT shape wins.
+    trains them. ``appearance``: a ``pretrain-encoder`` or ``encoder get`` output directory; its shape wins, and its
+    ``video_processing.json`` sets how frames are prepared unless ``video`` is given.
     """
     if tokenizer is None:
         if isinstance(llm, PreTrainedModel):
@@ -39,9 +41,26 @@ def build_model(llm: str | os.PathLike[str] | PreTrainedModel, *, tokenizer: Pre
     model = TacReasonerForCausalLM.from_llm(
         llm, tactile_token_id=int(tokenizer.convert_tokens_to_ids(TACTILE_PAD)), vocab_size=len(tokenizer),
         new_token_ids=new_ids, encoder=encoder, appearance=appearance, **llm_kwargs)
+    if video is None and appearance is not None:
+        video = appearance_video_settings(appearance)
     processor = TacReasonerProcessor.for_encoder(tokenizer, model.encoder_config, video=video or {},
                                                  system_prompt=system_prompt)
     return model, processor
+
+
+def appearance_video_settings(appearance: str | os.PathLike[str]) -> dict[str, Any]:
+    """How the appearance directory's encoder wants its frames prepared (``video_processing.json``: sampling,
+    background, normalisation), without the frame count and size, which the encoder config fixes. The model's
+    processor uses them, so the frozen branch sees frames prepared as in its own pre-training."""
+    from tacreasoner.model.video_processing import VideoProcessingConfig
+
+    path = Path(appearance) / "video_processing.json"
+    if not path.is_file():
+        return {}
+    from tacreasoner.jsonl import read_json_object
+
+    data = VideoProcessingConfig.from_dict(read_json_object(path, "the video processing of an encoder")).to_dict()
+    return {k: v for k, v in data.items() if k not in ("num_frames", "image_size")}
 
 
 def untrained_token_ids(llm: str | os.PathLike[str] | PreTrainedModel) -> list[int]:

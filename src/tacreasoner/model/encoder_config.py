@@ -12,9 +12,15 @@ from typing import Any
 
 from tacreasoner.fields import reject_unknown_fields
 
-__all__ = ["DEFAULT_SENSOR_TYPES", "TactileEncoderConfig"]
+__all__ = ["BACKBONES", "BACKBONE_LAYERS", "DEFAULT_SENSOR_TYPES", "TactileEncoderConfig"]
 
 DEFAULT_SENSOR_TYPES = ("unknown", "mini", "digit", "tac3d")
+BACKBONES = ("vit", "efficientnet_lite0")
+"""The appearance branch: the VideoMAE-style ViT (pre-trained here or from a VideoMAE checkpoint), or a pretrained
+image backbone applied per frame (:mod:`tacreasoner.model.efficientnet`)."""
+BACKBONE_LAYERS = {"block112": (11, 112, False), "block320": (16, 320, False), "head": (16, 1280, True)}
+"""Where EfficientNet-Lite0 is cut: (MBConv blocks kept, channels, with the 1×1 head convolution). block112's map has
+stride 16, the others 32."""
 
 
 @dataclass
@@ -25,7 +31,12 @@ class TactileEncoderConfig:
     num_frames: int = 8
     image_size: tuple[int, int] = (64, 64)
     """(height, width) after resizing."""
-    # --- appearance branch: ViT over space-time tubelets (frozen in Stages I and II)
+    # --- appearance branch (frozen in Stages I and II)
+    backbone: str = "vit"
+    """``vit``: ViT over space-time tubelets (the fields below); ``efficientnet_lite0``: ImageNet's EfficientNet-Lite0
+    per frame, its feature map at ``backbone_layer`` as the tokens (hidden_size = that layer's channels)."""
+    backbone_layer: str = "block112"
+    """For ``efficientnet_lite0``: one of ``BACKBONE_LAYERS``."""
     patch_size: int = 8
     tubelet_size: int = 2
     hidden_size: int = 128
@@ -40,6 +51,11 @@ class TactileEncoderConfig:
     temporal_tokens: int = 4
     """Length of the aggregated temporal sequence F̄_temp (time is what it is for, so more than one)."""
     question_conditioning: bool = True
+    standardize_appearance: bool = False
+    """Each channel of the frozen appearance tokens is centred and scaled by its mean and standard deviation over the
+    training clips (measured when Stage I starts, no labels read, then kept in the model), as a linear probe
+    standardises its features: a frozen backbone's clip-to-clip differences are small beside each channel's offset,
+    and the projector learns them far more easily once they are unit-sized (docs/real-data.md)."""
     # --- fusion (Q = appearance, K = V = temporal) and output
     fusion_heads: int = 4
     tokens_per_video: int = 5
@@ -94,8 +110,11 @@ class TactileEncoderConfig:
     # ------------------------------------------------------------------ derived sizes
     @property
     def grid(self) -> tuple[int, int, int]:
-        """Tubelet grid (time, height, width)."""
+        """Token grid (time, height, width): ViT tubelets, or frames × the backbone's feature-map cells."""
         h, w = self.image_size
+        if self.backbone == "efficientnet_lite0":
+            stride = 16 if self.backbone_layer == "block112" else 32
+            return self.num_frames, -(-h // stride), -(-w // stride)
         return self.num_frames // self.tubelet_size, h // self.patch_size, w // self.patch_size
 
     @property
@@ -117,13 +136,24 @@ class TactileEncoderConfig:
             raise ValueError(f"encoder config: image_size must be (height, width) > 0, got {self.image_size!r}")
         if self.num_frames < 2:
             raise ValueError("encoder config: num_frames must be ≥ 2 (the temporal branch needs frame differences)")
-        if self.num_frames % self.tubelet_size:
-            raise ValueError(f"encoder config: num_frames ({self.num_frames}) must be a multiple of "
-                             f"tubelet_size ({self.tubelet_size})")
-        for side, name in zip(self.image_size, ("height", "width"), strict=True):
-            if side % self.patch_size:
-                raise ValueError(f"encoder config: image {name} {side} must be a multiple of patch_size "
-                                 f"{self.patch_size}")
+        if self.backbone not in BACKBONES:
+            raise ValueError(f"encoder config: backbone {self.backbone!r} is not one of {', '.join(BACKBONES)}")
+        if self.backbone == "efficientnet_lite0":
+            if self.backbone_layer not in BACKBONE_LAYERS:
+                raise ValueError(f"encoder config: backbone_layer {self.backbone_layer!r} is not one of "
+                                 f"{', '.join(BACKBONE_LAYERS)}")
+            channels = BACKBONE_LAYERS[self.backbone_layer][1]
+            if self.hidden_size != channels:
+                raise ValueError(f"encoder config: hidden_size must be {channels}, the channels of efficientnet_lite0 "
+                                 f"at {self.backbone_layer}, got {self.hidden_size}")
+        else:
+            if self.num_frames % self.tubelet_size:
+                raise ValueError(f"encoder config: num_frames ({self.num_frames}) must be a multiple of "
+                                 f"tubelet_size ({self.tubelet_size})")
+            for side, name in zip(self.image_size, ("height", "width"), strict=True):
+                if side % self.patch_size:
+                    raise ValueError(f"encoder config: image {name} {side} must be a multiple of patch_size "
+                                     f"{self.patch_size}")
         for width, heads, what in ((self.hidden_size, self.num_heads, "hidden_size/num_heads"),
                                    (self.hidden_size, self.fusion_heads, "hidden_size/fusion_heads")):
             if width % heads:
@@ -154,6 +184,9 @@ class TactileEncoderConfig:
                                  f"expression ({exc})") from None
         if not isinstance(self.cross_video_names, bool):
             raise ValueError(f"encoder config: cross_video_names must be true or false, got {self.cross_video_names!r}")
+        if not isinstance(self.standardize_appearance, bool):
+            raise ValueError(f"encoder config: standardize_appearance must be true or false, got "
+                             f"{self.standardize_appearance!r}")
         if not isinstance(self.video_labels, bool):
             raise ValueError(f"encoder config: video_labels must be true or false, got {self.video_labels!r}")
         if not self.sensor_types:

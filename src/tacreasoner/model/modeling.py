@@ -132,7 +132,8 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         ``vocab_size``: the tokenizer's size after tactile tokens were added; the LM's embeddings grow
         to it when smaller (new rows start at the mean of the old ones). Real checkpoints often have
         spare rows already (Qwen2.5: 152,064 rows for 151,665 tokens) and are left as they are. ``appearance``: a
-        directory saved by ``AppearanceEncoder.save_pretrained`` (``pretrain-encoder``) to load.
+        directory saved by ``AppearanceEncoder.save_pretrained`` (``pretrain-encoder``) or holding a pretrained
+        backbone (``tacreasoner encoder get``) to load.
         """
         if not isinstance(llm, PreTrainedModel):
             llm = AutoModelForCausalLM.from_pretrained(llm, **llm_kwargs)
@@ -140,9 +141,9 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
             llm.resize_token_embeddings(vocab_size, mean_resizing=True)
         enc = encoder if isinstance(encoder, TactileEncoderConfig) else TactileEncoderConfig.from_dict(encoder)
         if appearance is not None:
-            from tacreasoner.model.appearance import AppearanceEncoder
+            from tacreasoner.model.appearance import load_appearance
 
-            loaded = AppearanceEncoder.from_pretrained(appearance)
+            loaded = load_appearance(appearance)
             enc = _with_appearance_of(enc, loaded.config)
         config = TacReasonerConfig(text_config=llm.config.to_dict(), encoder=enc.to_dict(),
                                    tactile_token_id=tactile_token_id, new_token_ids=new_token_ids or [])
@@ -357,6 +358,6 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
 
 def _with_appearance_of(enc: TactileEncoderConfig, appearance: TactileEncoderConfig) -> TactileEncoderConfig:
     """The wanted encoder config with the pre-trained appearance ViT's shape fields."""
-    shape_fields = ("num_frames", "image_size", "patch_size", "tubelet_size", "hidden_size", "num_layers", "num_heads",
-                    "mlp_ratio", "layer_norm_eps", "qkv_bias")
+    shape_fields = ("num_frames", "image_size", "backbone", "backbone_layer", "patch_size", "tubelet_size",
+                    "hidden_size", "num_layers", "num_heads", "mlp_ratio", "layer_norm_eps", "qkv_bias")
     return enc.replace(**{f: getattr(appearance, f) for f in shape_fields})

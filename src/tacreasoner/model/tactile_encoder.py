@@ -15,7 +15,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from tacreasoner.model.appearance import AppearanceEncoder
+from tacreasoner.model.appearance import build_appearance
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.heads import ClipReader, CrossVideoFusion, loud_option_marks, mark_options
 from tacreasoner.model.temporal import TemporalBranch
@@ -144,7 +144,7 @@ class DynamicTactileEncoder(nn.Module):
     def __init__(self, config: TactileEncoderConfig, question_dim: int) -> None:
         super().__init__()
         self.config = config
-        self.appearance = AppearanceEncoder(config)
+        self.appearance = build_appearance(config)
         if config.use_temporal:
             self.temporal = TemporalBranch(config, question_dim)
             self.fusion = CrossAttentionFusion(config.hidden_size, config.fusion_heads, config.mlp_ratio)
@@ -153,21 +153,45 @@ class DynamicTactileEncoder(nn.Module):
             self.fusion = None
         self.sensor_embed = nn.Embedding(len(config.sensor_types), config.hidden_size) \
             if config.sensor_embedding else None
+        # per-channel statistics of the training clips' appearance tokens (identity until measured; saved)
+        self.register_buffer("appearance_mean", torch.zeros(config.hidden_size))
+        self.register_buffer("appearance_std", torch.ones(config.hidden_size))
 
     @property
     def hidden_size(self) -> int:
         return self.config.hidden_size
 
-    def appearance_tokens(self, pixel_values: torch.Tensor) -> torch.Tensor:
-        """F_app: CLS plus ``tokens_per_video − 1`` patch tokens average-pooled in t-h-w order."""
+    def appearance_tokens(self, pixel_values: torch.Tensor, standardized: bool = True) -> torch.Tensor:
+        """F_app: CLS plus ``tokens_per_video − 1`` patch tokens average-pooled in t-h-w order (standardised when
+        ``config.standardize_appearance``, unless ``standardized=False``)."""
         trainable = any(p.requires_grad for p in self.appearance.parameters())
         with torch.set_grad_enabled(trainable and torch.is_grad_enabled()):
             tokens = self.appearance(pixel_values)
         n = self.config.tokens_per_video
         if n == 1:
-            return tokens[:, :1]
-        patches = F.adaptive_avg_pool1d(tokens[:, 1:].transpose(1, 2), n - 1).transpose(1, 2)
-        return torch.cat([tokens[:, :1], patches], dim=1)
+            pooled = tokens[:, :1]
+        else:
+            patches = F.adaptive_avg_pool1d(tokens[:, 1:].transpose(1, 2), n - 1).transpose(1, 2)
+            pooled = torch.cat([tokens[:, :1], patches], dim=1)
+        return self.standardize(pooled) if standardized else pooled
+
+    def standardize(self, tokens: torch.Tensor) -> torch.Tensor:
+        """``(tokens − mean) / std`` per channel with the measured training statistics (identity before)."""
+        if not self.config.standardize_appearance:
+            return tokens
+        return (tokens - self.appearance_mean.to(tokens.dtype)) / self.appearance_std.to(tokens.dtype)
+
+    @property
+    def appearance_measured(self) -> bool:
+        """The training statistics were measured (the buffers are no longer the identity they start as)."""
+        return bool((self.appearance_mean != 0).any() or (self.appearance_std != 1).any())
+
+    @torch.no_grad()
+    def set_appearance_statistics(self, raw_tokens: torch.Tensor) -> None:
+        """Measure the per-channel mean and standard deviation of un-standardised appearance tokens (V×N×H)."""
+        flat = raw_tokens.reshape(-1, raw_tokens.shape[-1]).double()
+        self.appearance_mean.copy_(flat.mean(dim=0).to(self.appearance_mean.dtype))
+        self.appearance_std.copy_(flat.std(dim=0).clamp_min(1e-6).to(self.appearance_std.dtype))
 
     def forward(self, pixel_values: torch.Tensor, question: torch.Tensor | None = None,
                 sensor_ids: torch.Tensor | None = None, appearance: torch.Tensor | None = None) -> torch.Tensor:

@@ -25,7 +25,9 @@ from tacreasoner.data.sampling import (
 )
 from tacreasoner.fields import reject_unknown_fields
 
-__all__ = ["VideoInput", "VideoProcessingConfig", "preprocess_video", "sensor_index", "sensor_of"]
+__all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "preprocess_video", "sensor_index", "sensor_of"]
+
+BACKGROUNDS = ("subtract", "keep")
 
 VideoInput = TactileClip | np.ndarray | str | os.PathLike
 """A clip, T×H×W×3 uint8 frames, or a path to a video file."""
@@ -39,13 +41,26 @@ class VideoProcessingConfig:
     image_size: tuple[int, int] = (64, 64)
     sampling: str = "uniform"
     resize_mode: str = "fit"
-    mean: float = 0.5
-    """Background-subtracted frames are 0.5 where nothing touches; this centres them on 0."""
-    std: float = 0.1
+    mean: float | tuple[float, float, float] = 0.5
+    """Background-subtracted frames are 0.5 where nothing touches; this centres them on 0. One value or one per
+    RGB channel (ImageNet's for a pretrained image backbone)."""
+    std: float | tuple[float, float, float] = 0.1
     """Imprints change pixels by a few percent; dividing by a small std gives the ViT unit-scale input."""
+    background: str = "subtract"
+    """``subtract``: (frame − the gel at rest)/255 + 0.5, the imprint alone; ``keep``: frame/255, the sensor image
+    as it is (what an ImageNet backbone was trained on: lit gel, shading and texture)."""
 
     def __post_init__(self) -> None:
         self.image_size = tuple(int(v) for v in self.image_size)  # type: ignore[assignment]
+        for name in ("mean", "std"):
+            value = getattr(self, name)
+            if isinstance(value, list | tuple):
+                if len(value) != 3:
+                    raise ValueError(f"video processing: {name} must be one number or three (R, G, B), got {value!r}")
+                setattr(self, name, tuple(float(v) for v in value))
+        if self.background not in BACKGROUNDS:
+            raise ValueError(f"video processing: background {self.background!r} is not one of "
+                             f"{', '.join(BACKGROUNDS)}")
         if self.num_frames < 1:
             raise ValueError(f"video processing: num_frames must be ≥ 1, got {self.num_frames}")
         if len(self.image_size) != 2 or min(self.image_size) < 1:
@@ -56,12 +71,16 @@ class VideoProcessingConfig:
         if self.resize_mode not in RESIZE_MODES:
             raise ValueError(f"video processing: resize_mode {self.resize_mode!r} is not one of "
                              f"{', '.join(RESIZE_MODES)}")
-        if self.std <= 0:
+        if min(np.atleast_1d(self.std)) <= 0:
             raise ValueError(f"video processing: std must be > 0, got {self.std}")
 
     def to_dict(self) -> dict[str, Any]:
+        def plain(v: float | tuple[float, ...]) -> float | list[float]:
+            return list(v) if isinstance(v, tuple) else v
+
         return {"num_frames": self.num_frames, "image_size": list(self.image_size), "sampling": self.sampling,
-                "resize_mode": self.resize_mode, "mean": self.mean, "std": self.std}
+                "resize_mode": self.resize_mode, "mean": plain(self.mean), "std": plain(self.std),
+                "background": self.background}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None) -> VideoProcessingConfig:
@@ -95,7 +114,8 @@ def _frames_and_phases(video: VideoInput) -> tuple[np.ndarray, Sequence[str] | N
 
 def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = None, *,
                      seed: int | None = None, background: np.ndarray | None = None) -> np.ndarray:
-    """num_frames×3×H×W float32: sampled, resized keeping aspect, background-subtracted, normalised.
+    """num_frames×3×H×W float32: sampled, resized keeping aspect, background-subtracted (unless
+    ``config.background`` is ``keep``), normalised.
 
     The background is the clip's first no-contact frame (first frame when phases are unknown).
     ``seed`` jitters which frame is taken inside each sampling segment (training augmentation).
@@ -111,13 +131,18 @@ def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = N
     method = config.sampling
     if method == "phase" and phases is None:
         method = "uniform"  # real video without a phase track: fall back rather than fail mid-batch
-    idx = sample_indices(len(frames), config.num_frames, method, frames=frames if method == "salient" else None,
+    idx = sample_indices(len(frames), config.num_frames, method,
+                         frames=frames if method in ("salient", "contact") else None,
                          phases=phases if method == "phase" else None, seed=seed)
-    if background is None:
-        background = background_frame(frames, phases)
-    chosen = resize_keep_aspect(np.concatenate([background[None], frames[idx]]), *config.image_size,
-                                mode=config.resize_mode)
-    out = subtract_background(chosen[1:], chosen[0])
-    out -= config.mean
-    out /= config.std
+    if config.background == "keep":
+        out = resize_keep_aspect(frames[idx], *config.image_size, mode=config.resize_mode).astype(np.float32)
+        out /= 255.0
+    else:
+        if background is None:
+            background = background_frame(frames, phases)
+        chosen = resize_keep_aspect(np.concatenate([background[None], frames[idx]]), *config.image_size,
+                                    mode=config.resize_mode)
+        out = subtract_background(chosen[1:], chosen[0])
+    out -= np.asarray(config.mean, np.float32)
+    out /= np.asarray(config.std, np.float32)
     return np.ascontiguousarray(out.transpose(0, 3, 1, 2))

@@ -85,6 +85,10 @@ class DataSettings:
     stage1_comparisons: bool = False
     """Stage I also answers the train split's comparisons (SFD, SOI) with their plain verdicts, so the encoder and
     projector learn to present two or three videos in a way the frozen LLM can compare (docs/training.md)."""
+    paraphrases: bool = False
+    """Each train item with a training wording of its kind (``tasks/paraphrases/train.yaml``) is also asked in it,
+    so the model learns questions, not the benchmark's templates; lettered SFD/SOI wordings teach answering a listed
+    option by its letter (TSA's form). Held-out wordings (``heldout.yaml``) are never trained on."""
     tasks: list[str] | None = None
     """Restrict training items to these tasks (default: all in the files; TSA is never trained on)."""
     repeat: dict[str, int] | None = None
@@ -331,11 +335,25 @@ class TrainConfig:
         return config
 
 
+SHIPPED_CONFIGS = ("physiclear-smollm2-cpu",)
+"""Training configs inside the package (``--config NAME`` works from any directory)."""
+
+
+def shipped_config(name: str) -> Path | None:
+    """The path of a shipped config, by name (``physiclear-smollm2-cpu``); None if there is none."""
+    if name not in SHIPPED_CONFIGS:
+        return None
+    return Path(__file__).resolve().parents[1] / "recipes" / f"{name}.yaml"
+
+
 def load_train_config(path: str | Path, overrides: dict[str, Any] | None = None) -> TrainConfig:
     """Read a YAML training config; ``overrides`` are dotted keys (``{"stage2.steps": 10}``) applied on top."""
     path = Path(path)
+    if not path.is_file() and path.parent == Path(".") and shipped_config(path.stem) is not None:
+        path = shipped_config(path.stem)  # a config that ships with the package, by name
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such training config (see configs/tiny-cpu.yaml)")
+        raise FileNotFoundError(f"{path}: no such training config (see configs/tiny-cpu.yaml, or a shipped one by "
+                                f"name: {', '.join(SHIPPED_CONFIGS)})")
     data, lines = read_yaml(path)
     if data is None:
         data = {}

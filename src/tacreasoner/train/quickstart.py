@@ -227,6 +227,26 @@ def results_table(report: Any, baselines: dict[str, dict[str, float]]) -> tuple[
     return lines, verdict
 
 
+def _what_training_saw(paths: QuickstartPaths) -> str:
+    """The report's claim about test objects, read from what the encoder's pre-training recorded it read."""
+    from tacreasoner.train.pretrain_encoder import splits_seen
+
+    if (paths.encoder / "source.json").is_file():
+        return ("No val or test clip was seen in any training: the appearance encoder holds ImageNet weights "
+                "(EfficientNet-Lite0), trained on no tactile clip.")
+    seen = splits_seen(paths.encoder)
+    if seen is None:
+        return ("Stages I and II never saw a test object; the encoder's pre-training did not record which splits it "
+                "read.")
+    text = ", ".join(f"{split} {n}" for split, n in seen.items())
+    evaluation = sorted(set(seen) - {"train", "unlabelled"})
+    if evaluation:
+        return (f"Stages I and II never saw a test object, but the encoder's pre-training read "
+                f"{' and '.join(evaluation)} clips (clips per split: {text}).")
+    return (f"No val or test clip was seen in any training, the encoder's pre-training included (clips per split: "
+            f"{text}).")
+
+
 def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings: dict[str, Any], *,
                         progress: Callable[[str], Callable[[int, int], None]] | None = None) -> QuickstartReport:
     """Evaluate every seed's model on the test split(s) and write ``report.md`` + ``report.json``."""
@@ -248,7 +268,7 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
              f"- Seeds: {sorted(models)} (Stage I + Stage II trained per seed); training seconds per seed: "
              f"{json.dumps(timings)}; evaluation {eval_seconds} s",
              "", "DynTAC-Sim-Bench is simulated: the project's stand-in for the paper's DynTAC-Bench, not its data. "
-             "Test objects were never seen in training; TSA (scenario choice) is zero-shot: never trained on. "
+             f"{_what_training_saw(paths)} TSA (scenario choice) is zero-shot: never trained on. "
              "Strict answer extraction: a reply not in `<think>…</think><answer>…</answer>` form counts as wrong.", ""]
     summary, verdicts = [], {}
     for split, report in reports.items():

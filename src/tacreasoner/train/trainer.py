@@ -252,11 +252,11 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
     examples = load_examples(stage, config.data.bench, touchcot=config.data.touchcot,
                              stage2_data=config.data.stage2_data, tasks=config.data.tasks,
                              max_items=config.data.max_items, video_readings=config.data.stage1_video_readings,
-                             comparisons=config.data.stage1_comparisons)
+                             comparisons=config.data.stage1_comparisons, paraphrases=config.data.paraphrases)
     for extra in config.data.extra_benches:  # plain answers (checked), videos under each benchmark's own root
         examples += load_examples(stage, extra, stage2_data="plain", tasks=config.data.tasks,
                                   video_readings=config.data.stage1_video_readings,
-                                  comparisons=config.data.stage1_comparisons)
+                                  comparisons=config.data.stage1_comparisons, paraphrases=config.data.paraphrases)
     tokenized, dropped = tokenize_examples(processor, examples, config.data.max_length)
     if not tokenized:
         raise ValueError(f"every example is longer than data.max_length={config.data.max_length} tokens")
@@ -264,8 +264,14 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
     video_keys = [k for e in tokenized for k in e.videos]
     bar.stage("preprocessing videos", len(set(video_keys)))
     bank.build(video_keys, progress=lambda done, _total: bar.update(done), cache_dir=config.data.video_cache)
-    if config.data.cache_appearance:
-        bank.cache_appearance(base.tactile_encoder)
+    encoder = base.tactile_encoder
+    raw = bank.cache_appearance(encoder, cache_dir=config.data.video_cache) if config.data.cache_appearance else None
+    if base.encoder_config.standardize_appearance and not encoder.appearance_measured:
+        # the training clips' own statistics, before any step (no labels read); kept in the saved model
+        raw = raw if raw is not None else bank.appearance_tokens(encoder, standardized=False)
+        encoder.set_appearance_statistics(raw)
+        if bank.appearance is not None:
+            bank.appearance = encoder.standardize(raw)
     fitted: dict[str, Any] = {}
     if stage == 2 and model_heads(base):  # encoder frozen from here: fit the read-out heads, then freeze them
         bar.stage("fitting read-out heads", len(tokenized))
