@@ -32,7 +32,8 @@ def tiny_llm(out: Path, bench: Path) -> Path:
     return out
 
 
-def test_the_recipe_runs_end_to_end_and_resumes(physiclear_folder: Path, tmp_path: Path) -> None:
+def test_the_recipe_runs_end_to_end_and_resumes(physiclear_folder: Path, make_physiclear_folder,
+                                                tmp_path: Path) -> None:
     from tacreasoner.recipes.physiclear import run_recipe
     from tacreasoner.tasks.bench import build_bench
 
@@ -62,6 +63,17 @@ def test_the_recipe_runs_end_to_end_and_resumes(physiclear_folder: Path, tmp_pat
                        encoder={"size": "48x64", "frames": 4}, say=said.append)
     assert all("done before" in line for line in said if line.endswith(("done before", "...")))
     assert not any(line.endswith("...") for line in said) and again["seconds"] == record["seconds"]
+    # the maintainers' path: the recipe's model scored by the CLI on a folder that holds only a test split
+    from typer.testing import CliRunner
+
+    from tacreasoner.cli import app
+
+    held_out = make_physiclear_folder(tmp_path / "held_out", {"test": 3}, clips_per_object=1)
+    result = CliRunner().invoke(app, ["evaluate-physiclear", "--model", str(model), "--data", str(held_out),
+                                      "--out", str(tmp_path / "scored")])
+    assert result.exit_code == 0, result.output
+    octopi = (tmp_path / "scored" / "octopi.md").read_text()
+    assert "hardness" in octopi.lower() and "test" in (tmp_path / "scored" / "report.md").read_text()
 
 
 def test_a_folder_without_train_objects_is_refused(make_physiclear_folder, tmp_path: Path) -> None:
