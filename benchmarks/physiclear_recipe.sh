@@ -65,7 +65,7 @@ for v in "${VARIANTS[@]}"; do
         for st in 1 2; do
             [ "$v" = no_stage1 ] && [ "$st" = 1 ] && continue
             # shellcheck disable=SC2086  # SETS holds several words
-            step "$v.seed$s.stage$st" "$out/stage$st/run.json" $TR train --stage "$st" --config "$CONFIG" \
+            step "$v.seed$s.stage$st" "$out/stage$st/model/config.json" $TR train --stage "$st" --config "$CONFIG" \
                 --set seed="$s" --set output_dir="$out" --set model.llm=runs/smollm2 --set model.appearance=runs/effnet \
                 --set data.bench="$W/bench" --set data.video_cache="$W/video_cache" --set runtime.progress=false \
                 ${SETS[$v]}

@@ -66,6 +66,25 @@ def test_tokens_are_every_frame_cell_after_their_clip_mean_and_batch_norm_stays_
         model(torch.zeros(1, 4, 3, 32, 32))
 
 
+def test_frames_go_through_in_chunks_with_the_same_tokens(monkeypatch) -> None:
+    """Evaluation batches of 3-video prompts ran out of memory when every frame went through at once."""
+    import tacreasoner.model.efficientnet as effnet
+
+    model = EfficientNetAppearance(small())
+    load_imagenet_weights(model)
+    x = torch.randn(3, 4, 3, 48, 64, generator=torch.Generator().manual_seed(1))
+    seen: list[int] = []
+    features = model.frame_features
+    monkeypatch.setattr(model, "frame_features", lambda frames: seen.append(len(frames)) or features(frames))
+    with torch.no_grad():
+        whole = model(x)
+        monkeypatch.setattr(effnet, "FRAME_CHUNK", 5)
+        seen.clear()
+        chunked = model(x)
+    assert seen == [5, 5, 2]
+    torch.testing.assert_close(chunked, whole, rtol=1e-4, atol=1e-5)
+
+
 def test_encoder_get_writes_an_appearance_folder_that_loads(tmp_path: Path) -> None:
     out = tmp_path / "effnet"
     result = CliRunner().invoke(app, ["encoder", "get", "efficientnet-lite0", "--out", str(out), "--layer",

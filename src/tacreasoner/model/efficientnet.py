@@ -30,6 +30,9 @@ from tacreasoner.model.video_processing import VideoProcessingConfig
 __all__ = ["BACKBONE_DEFAULTS", "IMAGENET_MEAN", "IMAGENET_STD", "EfficientNetAppearance", "backbone_settings",
            "imagenet_weights_path", "load_imagenet_weights", "save_imagenet_backbone"]
 
+FRAME_CHUNK = 32
+"""Frames through the backbone at once: bounds evaluation memory (about 0.3 GB of feature maps at 240×320)."""
+
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
 IMAGENET_STD = (0.229, 0.224, 0.225)
 BACKBONE_DEFAULTS: dict[str, Any] = {"layer": "block112", "size": "240x320", "frames": 8, "sampling": "contact",
@@ -101,7 +104,10 @@ class EfficientNetAppearance(nn.Module):
                              f"got {tuple(pixel_values.shape)}")
         v = len(pixel_values)
         param = next(self.parameters())
-        maps = self.frame_features(pixel_values.flatten(0, 1).to(param.dtype))
+        frames = pixel_values.flatten(0, 1).to(param.dtype)
+        # a few frames at a time: a batch of 3-video prompts at 240×320 is ~800 frames, whose early feature maps
+        # held at once took 21 GB and were killed for memory (no-grad evaluation keeps one chunk's alive)
+        maps = torch.cat([self.frame_features(chunk) for chunk in frames.split(FRAME_CHUNK)])
         tokens = maps.flatten(2).transpose(1, 2).reshape(v, -1, maps.shape[1])  # V×(T·h·w)×C in t-h-w order
         if not add_cls:
             return tokens
