@@ -425,6 +425,7 @@ def _appearance_files(keys: Sequence[VideoKey], video_config: Any, tactile_encod
 
 
 def _save_array(file: Path | None, array: np.ndarray) -> None:
+    """Write one cached array atomically (a crash never leaves a torn file under its name); no file, no write."""
     if file is None:
         return
     file.parent.mkdir(parents=True, exist_ok=True)
@@ -460,12 +461,7 @@ def _preprocess_clip(job: tuple[str, list[VideoKey], Any, list[Path | None]]) ->
         if len(segment) == 0:
             raise ValueError(f"{path}: segment [{start}, {end}) holds no frames")
         array = preprocess_video(segment, video_config, background=background_frame(frames))
-        if cached is not None:
-            cached.parent.mkdir(parents=True, exist_ok=True)
-            tmp = cached.with_suffix(f".{os.getpid()}.tmp")
-            with tmp.open("wb") as f:
-                np.save(f, array)
-            os.replace(tmp, cached)
+        _save_array(cached, array)
         out.append(array)
     return out
 
