@@ -10,6 +10,10 @@
 #   cot        Stage II on TouchCoT reasoning (offline rules teacher) instead of plain answers
 #   no_stage1  without Stage I (Stage II from the untrained projector)
 #   heads      with the cross-fitted read-out heads (clip reader, comparator, name matcher): a plug-in, beside
+#   long       the recipe trained longer: Stage I 300 + Stage II 600 steps (the first recipe's length)
+# TRAIN_ONLY=1 stops after training (to train variants and seeds in parallel, then evaluate); TABLE=0 skips the
+# table; EVAL=0 tables what was evaluated before without evaluating; NAME names the result
+# files (default physiclear_val); MACHINE says where it ran (default: 2 CPU cores, this machine).
 # Each step is skipped when its output exists; its wall time goes to $W/times.tsv when it runs.
 #   SEEDS_rec="0 1 2" VARIANTS="rec no_dyn" bash benchmarks/physiclear_recipe.sh [SEED...]   # default: rec, seed 0
 set -u
@@ -25,10 +29,11 @@ read -r -a VARIANTS <<< "${VARIANTS:-rec}"
 declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
                  [cot]="--set data.stage2_data=touchcot --set data.touchcot=$W/touchcot/touchcot/touchcot_train.jsonl"
                  [no_stage1]="--set stage1.skip=true"
-                 [heads]="--set model.encoder.cross_video=3 --set model.encoder.clip_reader=true")
+                 [heads]="--set model.encoder.cross_video=3 --set model.encoder.clip_reader=true"
+                 [long]="--set stage1.steps=300 --set stage2.steps=600")
 declare -A LABEL=([rec]="TacReasoner core, recommended recipe" [no_dyn]="w/o temporal branch"
                   [cot]="Stage II on TouchCoT" [no_stage1]="w/o Stage I"
-                  [heads]="core + cross-fitted read-out heads (plug-in)")
+                  [heads]="core + cross-fitted read-out heads (plug-in)" [long]="core, Stage I 300 + II 600 steps")
 mkdir -p "$W/logs"
 step() {  # step NAME DONE_FILE COMMAND...: run unless DONE_FILE exists; log its wall time
     local name=$1 done=$2 start
@@ -72,13 +77,18 @@ for v in "${VARIANTS[@]}"; do
         done
         models+=(--model "$out/stage2/model")
     done
-    step "$tag.eval_val" "$W/eval_val/$tag/octopi.json" $TR evaluate-physiclear "${models[@]}" --data "$DATA" \
-        --split val --out "$W/eval_val/$tag"
-    step "$tag.eval_val_heldout" "$W/eval_val_heldout/$tag/octopi.json" $TR evaluate-physiclear "${models[@]}" \
-        --data "$DATA" --split val --wording heldout --out "$W/eval_val_heldout/$tag"
-    rows+=(--row "${LABEL[$v]} (${#vseeds[@]} seed(s))=$W/eval_val/$tag")
-    heldout_rows+=(--row "${LABEL[$v]}, held-out wordings (${#vseeds[@]} seed(s))=$W/eval_val_heldout/$tag")
+    [ "${TRAIN_ONLY:-0}" = 1 ] && continue
+    if [ "${EVAL:-1}" = 1 ]; then
+        step "$tag.eval_val" "$W/eval_val/$tag/octopi.json" $TR evaluate-physiclear "${models[@]}" --data "$DATA" \
+            --split val --out "$W/eval_val/$tag"
+        step "$tag.eval_val_heldout" "$W/eval_val_heldout/$tag/octopi.json" $TR evaluate-physiclear "${models[@]}" \
+            --data "$DATA" --split val --wording heldout --out "$W/eval_val_heldout/$tag"
+    fi
+    [ -e "$W/eval_val/$tag/octopi.json" ] && rows+=(--row "${LABEL[$v]} (${#vseeds[@]} seed(s))=$W/eval_val/$tag")
+    [ -e "$W/eval_val_heldout/$tag/octopi.json" ] && \
+        heldout_rows+=(--row "${LABEL[$v]}, held-out wordings (${#vseeds[@]} seed(s))=$W/eval_val_heldout/$tag")
 done
-$PY benchmarks/physiclear_table.py --split val --name physiclear_val "${rows[@]}" "${heldout_rows[@]}" \
-    --notes "Trained and answered on 2 CPU cores (this machine) by $(for v in "${VARIANTS[@]}"; do n="SEEDS_$v"; [ -n "${!n:-}" ] && printf "SEEDS_%s='%s' " "$v" "${!n}"; done)VARIANTS='${VARIANTS[*]}' bash benchmarks/physiclear_recipe.sh ${SEEDS[*]}: the shipped config $CONFIG (SmolLM2-135M-Instruct from a 4-bit GGUF, EfficientNet-Lite0 ImageNet appearance encoder, the paper's core modules; variants: ${VARIANTS[*]}, see the script); step wall times in seconds: $(tr '\t\n' '= ' < "$W/times.tsv"). Val: PhysiCLeAR's 7 val objects (Octopi's split); 'held-out wordings' rows ask the same val items in wordings no training used (tasks/paraphrases/heldout.yaml: TFA, combined, PC, SOI only)." \
+{ [ "${TRAIN_ONLY:-0}" = 1 ] || [ "${TABLE:-1}" = 0 ]; } && exit 0
+$PY benchmarks/physiclear_table.py --split val --name "${NAME:-physiclear_val}" "${rows[@]}" "${heldout_rows[@]}" \
+    --notes "Trained and answered on ${MACHINE:-2 CPU cores (this machine)} by $(for v in "${VARIANTS[@]}"; do n="SEEDS_$v"; [ -n "${!n:-}" ] && printf "SEEDS_%s='%s' " "$v" "${!n}"; done)VARIANTS='${VARIANTS[*]}' bash benchmarks/physiclear_recipe.sh ${SEEDS[*]}: the shipped config $CONFIG (SmolLM2-135M-Instruct from a 4-bit GGUF, EfficientNet-Lite0 ImageNet appearance encoder, the paper's core modules; variants: ${VARIANTS[*]}, see the script); step wall times in seconds: $(tr '\t\n' '= ' < "$W/times.tsv"). Val: PhysiCLeAR's 7 val objects (Octopi's split); 'held-out wordings' rows ask the same val items in wordings no training used (tasks/paraphrases/heldout.yaml: TFA, combined, PC, SOI only)." \
     > "$W/logs/table.log" 2>&1 && echo "[$(date +%H:%M:%S)] table written" || echo "table FAILED (see $W/logs/table.log)"

@@ -60,12 +60,12 @@ def main() -> None:
     args = ap.parse_args()
     from tacreasoner.evaluate.octopi import OCTOPI_COLUMNS, PUBLISHED, octopi_markdown
 
-    rows = {}
+    rows, spec_of = {}, {}
     for spec in args.row:
         label, sep, path = spec.partition("=")
         if not sep:
             raise SystemExit(f"--row {spec!r}: expected LABEL=PATH")
-        rows[label] = row_table(Path(path))
+        rows[label], spec_of[label] = row_table(Path(path)), path
     info = stamp()
     md = header_md(f"PhysiCLeAR {args.split}: Octopi's task set", info) + (args.notes + "\n\n" if args.notes else "")
     columns = [c for c, _ in OCTOPI_COLUMNS]
@@ -81,6 +81,10 @@ def main() -> None:
             chance = next(line for line in lines if line.startswith("| chance"))
             first = False
         md += "\n".join(body) + "\n"
+        if (Path(spec_of[label]) / "settings.json").is_file():  # a model's replies (evaluate's folder)
+            md += (f"| ↳ {label}: replies in the asked form % | "
+                   + " | ".join("–" if table.get(c) is None else f"{100 * (1 - table[c]['parse_failure_rate']):.1f}"
+                                for c in columns) + " |\n")
     md += n_line + "\n" + chance + "\n"
     md += "\n".join(f"| {name} (published, Octopi's test objects) | "
                     + " | ".join(f"{row[c]:.1f}" if c in row else "–" for c in columns) + " |"

@@ -94,3 +94,16 @@ def test_appearance_tokens_are_kept_on_disk_per_encoder(tmp_path: Path) -> None:
     bank.cache_appearance(encoder, cache_dir=tmp_path / "cache")
     flat = bank.appearance.reshape(-1, 16).double()
     assert flat.mean(0).abs().max() < 1e-4 and (flat.std(0) - 1).abs().max() < 1e-3
+
+
+def test_the_decoding_processes_follow_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    from tacreasoner.train.data import VIDEO_WORKERS_ENV, _video_workers
+
+    monkeypatch.setenv(VIDEO_WORKERS_ENV, "12")
+    assert _video_workers(None) == 12
+    assert _video_workers(3) == 3  # an explicit argument wins
+    monkeypatch.setenv(VIDEO_WORKERS_ENV, "many")
+    with pytest.raises(ValueError, match=f"{VIDEO_WORKERS_ENV}='many'"):
+        _video_workers(None)
+    monkeypatch.delenv(VIDEO_WORKERS_ENV)
+    assert 1 <= _video_workers(None) <= 2

@@ -466,9 +466,19 @@ def _preprocess_clip(job: tuple[str, list[VideoKey], Any, list[Path | None]]) ->
     return out
 
 
+VIDEO_WORKERS_ENV = "TACREASONER_VIDEO_WORKERS"
+"""Decoding processes for a video bank, where the default (2: what a 2-core machine's memory and cores allow) is
+too few, e.g. on a 16-core GPU machine."""
+
+
 def _video_workers(workers: int | None) -> int:
     if workers is not None:
         return max(1, int(workers))
+    if os.environ.get(VIDEO_WORKERS_ENV):
+        value = os.environ[VIDEO_WORKERS_ENV]
+        if not value.isdigit() or int(value) < 1:
+            raise ValueError(f"{VIDEO_WORKERS_ENV}={value!r}: expected a whole number of processes, 1 or more")
+        return int(value)
     if int(os.environ.get("WORLD_SIZE", "1")) > 1:
         return 1  # each process of a distributed run builds its own bank: the cores are taken
     from tacreasoner.train.threads import available_cores
