@@ -1047,8 +1047,8 @@ def recipe_physiclear_cmd(
     evaluate: Annotated[bool, typer.Option("--evaluate/--no-evaluate", help="Score the folder's val objects.")] = True,
 ) -> None:
     """The recommended real-data recipe, end to end: SmolLM2 + EfficientNet-Lite0 encoder, Octopi's task set, Stage I
-    and II, val scored in the benchmark's and in held-out wordings (as shipped about 75 minutes per seed on a
-    2-core Intel Xeon without bf16; docs/real-data.md, "Measured")."""
+    and II, val scored in the benchmark's and in held-out wordings (as shipped about 47 minutes per seed on a
+    2-core Intel Xeon without bf16, under 4 on one H100; docs/real-data.md, "Measured")."""
     _needs_train_extra("recipe physiclear")
     _at_least_one("--seeds", seeds)
     from tacreasoner.data.readers import default_physiclear_dir
