@@ -584,6 +584,33 @@ def paraphrase_bench_cmd(
     console.print(f"held-out wordings: {out}")
 
 
+@app.command("task-loss")
+@cli_errors
+def task_loss_cmd(
+    model: Annotated[Path, typer.Option("--model", help="A trained model folder (stage2/model).")],
+    bench: Bench,
+    out: Annotated[Path, typer.Option("--out", help="Folder for task_loss.json and task_loss.md.")],
+    splits: Annotated[str, typer.Option("--splits", help="Comma-separated splits, the reference first.")] = "train,val",
+    per_task: Annotated[int, typer.Option("--per-task", help="Items per task and split (0: all).")] = 40,
+    seed: Annotated[int, typer.Option("--seed", help="Draws the items of each task.")] = 0,
+    video_cache: Annotated[Path | None, typer.Option(
+        "--video-cache", help="Preprocessed-video folder to reuse and fill (e.g. a training run's).")] = None,
+) -> None:
+    """The gold answer's teacher-forced loss per task on train items against val items: a small train loss beside
+    a large val loss means the model learned the training objects by heart, both large that it under-fits."""
+    from tacreasoner.evaluate.task_loss import task_losses, write_task_losses
+
+    if per_task < 0:
+        raise ValueError(f"--per-task {per_task}: expected 0 (all) or more")
+    split_list = [s.strip() for s in splits.split(",") if s.strip()]
+    with StageProgress() as bars:
+        losses = task_losses(model, bench, splits=split_list, per_task=per_task or None, seed=seed,
+                             video_cache=video_cache, progress=functools.partial(bars, "teacher-forced answers"))
+    path = write_task_losses(losses, out, model=str(model), bench=str(bench), per_task=per_task, seed=seed)
+    console.print(path.read_text(encoding="utf-8"))
+    console.print(f"written: {path} and {path.with_suffix('.json')}")
+
+
 Encoder = Annotated[Path, typer.Option("--encoder", help="Frozen appearance encoder that embeds the clips (a "
                                                          "`tacreasoner pretrain-encoder` folder).")]
 
