@@ -354,13 +354,19 @@ def test_set_reads_exponent_numbers_without_a_dot_as_floats() -> None:
 
 def test_the_heads_and_physiclear_variants_change_only_what_they_say() -> None:
     """smollm2-135m-heads-cpu: the CPU recipe with the heads on; physiclear-smollm2-cpu: the CPU recipe on
-    PhysiCLeAR's benchmark (plain answers, so no TouchCoT file) with the EfficientNet-Lite0 appearance encoder."""
+    PhysiCLeAR's benchmark (plain answers, so no TouchCoT file) with the EfficientNet-Lite0 appearance encoder,
+    shortened to fit 60 minutes on 2 cores (Stage I 200, Stage II 400 steps), with paraphrased training wordings and
+    length-grouped batches (issue 37: chosen on val, docs/real-data.md)."""
     cpu = load_train_config(CONFIGS / "smollm2-135m-cpu.yaml").to_dict()
     heads = load_train_config(CONFIGS / "smollm2-135m-heads-cpu.yaml").to_dict()
     real = load_train_config(config_file("physiclear-smollm2-cpu")).to_dict()
     assert heads["model"]["encoder"]["cross_video"] == 3 and heads["model"]["encoder"]["clip_reader"] is True
-    for variant, changed in ((heads, {"output_dir", "model"}), (real, {"output_dir", "data", "model"})):
+    for variant, changed in ((heads, {"output_dir", "model"}),
+                             (real, {"output_dir", "data", "model", "stage1", "stage2"})):
         assert {k for k in cpu if cpu[k] != variant[k]} == changed
+    for stage, steps in (("stage1", 200), ("stage2", 400)):
+        assert {k for k in cpu[stage] if cpu[stage][k] != real[stage][k]} == {"steps"}
+        assert real[stage]["steps"] == steps
     assert {k for k in cpu["model"] if cpu["model"][k] != heads["model"][k]} == {"encoder"}
     # the real-data recipe's appearance branch is the pretrained backbone (`encoder get`), not the simulated ViT
     assert {k for k in cpu["model"] if cpu["model"][k] != real["model"][k]} <= {"appearance", "encoder"}
@@ -368,7 +374,9 @@ def test_the_heads_and_physiclear_variants_change_only_what_they_say() -> None:
     encoder_changes = {k for k in {*cpu["model"]["encoder"], *real["model"]["encoder"]}
                        if cpu["model"]["encoder"].get(k) != real["model"]["encoder"].get(k)}
     assert encoder_changes <= {"standardize_appearance"}
-    assert {k for k in cpu["data"] if cpu["data"][k] != real["data"][k]} == {"bench", "touchcot", "video_cache"}
+    assert {k for k in cpu["data"] if cpu["data"][k] != real["data"][k]} == {"bench", "touchcot", "video_cache",
+                                                                               "paraphrases", "group_by_length"}
+    assert real["data"]["paraphrases"] is True and real["data"]["group_by_length"] is True
     assert real["data"]["bench"] == "runs/physiclear/bench" and real["data"]["touchcot"] is None
 
 
