@@ -1,61 +1,84 @@
 #!/usr/bin/env bash
-# The PhysiCLeAR recipe and the paper's directions on one lent GPU, inside a fixed time budget (issue 37, points 5
-# and 6). Same config and steps as benchmarks/physiclear_recipe.sh, which it calls; what differs on a GPU is only
-# that Accelerate picks bf16 mixed precision there (runtime.mixed_precision: auto).
-#   A. `tacreasoner recipe physiclear` (seed 0, no evaluation) ALONE: its recipe.json holds the GPU recipe's cost
-#      (ALONE=0: its Stage I only, which decodes the clips once for all; measured once, 2026-11-26, 113 + 87 s);
-#   B. every other (variant, seed) trained in parallel on the same GPU (PARALLEL processes), stopped EVAL_SECONDS
-#      before DEADLINE;
-#   C. each variant's finished seeds answered on val (benchmark and held-out wordings), variants in parallel;
-#   D. the table: benchmarks/results/$NAME.{md,json}.
+# The recommended PhysiCLeAR recipe (3 seeds) and the paper's directions on it (3 seeds each) on one lent GPU, inside
+# a fixed time budget (issue 37, points 5 and 6). Same config and steps as benchmarks/physiclear_recipe.sh, whose
+# steps it runs; what differs on a GPU is only that Accelerate picks bf16 mixed precision (runtime.mixed_precision:
+# auto). The 135M model leaves an H100 mostly idle, so every (variant, seed) runs at once as its own chain:
+#   1. shared parts: bench, baselines, TouchCoT (rules teacher), and the clip cache, filled once by a 1-step Stage I
+#      (so the chains do not all decode the same clips);
+#   2. one chain per (variant, seed): [Stage I] -> Stage II -> `evaluate-physiclear` on val into eval_seed/V.seedS;
+#      rec's chains then answer the held-out wordings and run the removed-touch control (blank, shuffled clips).
+#      `cot` differs from `rec` only in Stage II, so it starts from rec's Stage I of the same seed;
+#   3. at DEADLINE whatever has not finished is stopped; what finished stays (each step is skipped when redone).
+# Per-seed folders are joined into 3-seed rows and paired tests by benchmarks/physiclear_directions.sh (any machine).
 # Needs runs/smollm2 (tacreasoner llm get smollm2) and runs/effnet (tacreasoner encoder get efficientnet-lite0).
-#   W=runs/physiclear_gpu DATA=../shared/data/physiclear DEADLINE=$(( $(date +%s) + 540 )) bash benchmarks/physiclear_gpu.sh
+#   W=runs/physiclear_gpu DATA=../shared/data/physiclear DEADLINE=$(( $(date +%s) + 500 )) bash benchmarks/physiclear_gpu.sh
 set -u
 export PYTHONUNBUFFERED=1 W=${W:-runs/physiclear_gpu} DATA=${DATA:-../shared/data/physiclear}
 export TR=${TR:-python3 -m tacreasoner} PY=${PY:-python3} TACREASONER_VIDEO_WORKERS=${TACREASONER_VIDEO_WORKERS:-12}
-export MACHINE=${MACHINE:-one $(nvidia-smi --query-gpu=name --format=csv,noheader 2>/dev/null | head -1) GPU}
-read -r -a VARIANTS <<< "${VARIANTS:-rec long no_dyn no_stage1}"
-PARALLEL=${PARALLEL:-12}                   # all of B at once: each process keeps the GPU only a little busy
-DEADLINE=${DEADLINE:-$(( $(date +%s) + 540 ))}  # epoch seconds by which D must have run
-EVAL_SECONDS=${EVAL_SECONDS:-200}          # what C is given
-NAME=${NAME:-physiclear_val_gpu}
+export CONFIG=${CONFIG:-physiclear-smollm2-cpu}
+read -r -a VARIANTS <<< "${VARIANTS:-rec no_dyn cot no_stage1}"
+read -r -a SEEDS <<< "${SEEDS:-0 1 2}"
+DEADLINE=${DEADLINE:-$(( $(date +%s) + 500 ))}  # epoch seconds by which everything stops
 here=$(dirname "$0")
 say() { echo "[$(date +%H:%M:%S)] $*"; }
+mkdir -p "$W/logs" "$W/eval_seed" "$W/touch"
 
-say "A: the one-command recipe, seed 0, trained alone (its recipe.json holds the GPU's wall times)"
-mkdir -p "$W/recipe" "$W/runs"
-[ -e "$W/recipe/encoder" ] || cp -r runs/effnet "$W/recipe/encoder"
-# ALONE=0: only Stage I of it alone (it decodes the clips for everyone); its Stage II joins the parallel trainings
-skip_stage2=(); [ "${ALONE:-1}" = 0 ] && skip_stage2=(--set stage2.skip=true)
-$TR recipe physiclear --data "$DATA" --out "$W/recipe" --llm runs/smollm2 --no-evaluate "${skip_stage2[@]}" || exit 1
-# the recipe's parts become the variants' shared parts (same config, bench and clip cache)
-for part in bench video_cache; do [ -e "$W/$part" ] || ln -s "recipe/$part" "$W/$part"; done
-[ -e "$W/runs/rec.seed0" ] || ln -s ../recipe/train/seed0 "$W/runs/rec.seed0"
-VARIANTS=rec TRAIN_ONLY=1 bash "$here/physiclear_recipe.sh" 0 || exit 1
+step() {  # step NAME DONE_FILE COMMAND...: run unless DONE_FILE exists; log its wall time
+    local name=$1 done=$2 start
+    shift 2
+    [ -e "$done" ] && return 0
+    start=$(date +%s)
+    "$@" > "$W/logs/$name.log" 2>&1 || { say "$name FAILED (see $W/logs/$name.log)"; return 1; }
+    printf '%s\t%s\n' "$name" "$(( $(date +%s) - start ))" >> "$W/times.tsv"
+    say "$name: $(( $(date +%s) - start )) s"
+}
 
-B_SECONDS=${B_SECONDS:-$(( DEADLINE - $(date +%s) - EVAL_SECONDS ))}
-say "B: the other trainings, $PARALLEL at a time, for at most $B_SECONDS s"
-jobs=()
-for v in "${VARIANTS[@]}"; do for s in 0 1 2; do [ "$v.$s.${ALONE:-1}" = rec.0.1 ] || jobs+=("$v $s"); done; done
-printf '%s\n' "${jobs[@]}" | timeout "$B_SECONDS" xargs -P "$PARALLEL" -L 1 bash -c \
-    'OMP_NUM_THREADS=1 VARIANTS=$0 TRAIN_ONLY=1 bash '"$here"'/physiclear_recipe.sh $1 > /dev/null'
-pkill -f physiclear_recipe.sh 2>/dev/null
-pkill -f "tacreasoner train" 2>/dev/null
-sleep 2
-say "B: $(ls -d "$W"/runs/*/stage2/model/config.json 2>/dev/null | wc -l) models trained"
-
-say "C: evaluations"
-done_variants=()
-for v in "${VARIANTS[@]}"; do
-    seeds=()
-    for s in 0 1 2; do [ -e "$W/runs/$v.seed$s/stage2/model/config.json" ] && seeds+=("$s"); done
-    [ ${#seeds[@]} -eq 0 ] && continue
-    done_variants+=("$v")
-    export "SEEDS_$v=${seeds[*]}"
-    OMP_NUM_THREADS=3 VARIANTS=$v TABLE=0 timeout $(( DEADLINE - $(date +%s) - 20 )) \
-        bash "$here/physiclear_recipe.sh" "${seeds[@]}" &
+say "1: shared parts"
+step bench "$W/bench/bench.json" $TR build-bench --source physiclear --data "$DATA" --out "$W/bench" || exit 1
+# TouchCoT's cue extraction decodes clips too: beside the clip cache, in the background (only cot's Stage II needs it)
+(step touchcot "$W/touchcot/touchcot/touchcot_train.jsonl" $TR build-cot --bench "$W/bench" --out "$W/touchcot" \
+    --teacher rules --workers "$TACREASONER_VIDEO_WORKERS" || touch "$W/logs/touchcot.failed") &
+for kind in random majority; do
+    step "baseline_$kind" "$W/baselines/$kind/report.json" bash -c \
+        "$TR baseline --bench $W/bench --kind $kind --split val --out $W/baselines/$kind/preds/$kind.jsonl && \
+         $TR score $W/baselines/$kind/preds/$kind.jsonl --bench $W/bench --split val --out $W/baselines/$kind"
 done
-wait
-pkill -f "tacreasoner evaluate-physiclear" 2>/dev/null
-say "D: table"
-VARIANTS="${done_variants[*]}" NAME=$NAME EVAL=0 bash "$here/physiclear_recipe.sh"
+step clip_cache "$W/warm/stage1/model/config.json" $TR train --stage 1 --config "$CONFIG" --set stage1.steps=1 \
+    --set output_dir="$W/warm" --set model.llm=runs/smollm2 --set model.appearance=runs/effnet \
+    --set data.bench="$W/bench" --set data.video_cache="$W/video_cache" --set runtime.progress=false || exit 1
+
+chain() {  # chain VARIANT SEED
+    local v=$1 s=$2 model="$W/runs/$1.seed$2/stage2/model"
+    if [ "$v" = cot ]; then
+        until [ -e "$W/runs/rec.seed$s/stage1/model/config.json" ] && [ -e "$W/touchcot/touchcot/touchcot_train.jsonl" ]
+        do [ -e "$W/logs/touchcot.failed" ] && return 1; sleep 5; done
+        mkdir -p "$W/runs/cot.seed$s"
+        [ -e "$W/runs/cot.seed$s/stage1" ] || ln -s "../rec.seed$s/stage1" "$W/runs/cot.seed$s/stage1"
+    fi
+    OMP_NUM_THREADS=1 VARIANTS=$v TRAIN_ONLY=1 bash "$here/physiclear_recipe.sh" "$s" > /dev/null || return 1
+    OMP_NUM_THREADS=1 step "$v.seed$s.eval_val" "$W/eval_seed/$v.seed$s/octopi.json" $TR evaluate-physiclear \
+        --model "$model" --data "$DATA" --split val --out "$W/eval_seed/$v.seed$s" || return 1
+    [ "$v" = rec ] || return 0
+    OMP_NUM_THREADS=1 step "$v.seed$s.eval_val_heldout" "$W/eval_seed_heldout/$v.seed$s/octopi.json" \
+        $TR evaluate-physiclear --model "$model" --data "$DATA" --split val --wording heldout \
+        --out "$W/eval_seed_heldout/$v.seed$s"
+    OMP_NUM_THREADS=1 step "$v.seed$s.touch" "$W/touch/physiclear_touch_$v.seed$s.md" $PY \
+        "$here/touch_control.py" --model "$model" --bench "$W/bench" --split val --out "$W/touch/$v.seed$s" \
+        --video-cache "$W/video_cache" --results-dir "$W/touch" --name "physiclear_touch_$v.seed$s"
+}
+export -f chain step say
+export here
+
+say "2: ${#VARIANTS[@]} variants x ${#SEEDS[@]} seeds, all at once, until $(date -d "@$DEADLINE" +%H:%M:%S)"
+pids=()
+for v in "${VARIANTS[@]}"; do for s in "${SEEDS[@]}"; do
+    W=$W chain "$v" "$s" & pids+=($!)
+done; done
+while [ "$(date +%s)" -lt "$DEADLINE" ] && [ -n "$(jobs -r)" ]; do sleep 3; done
+if [ -n "$(jobs -r)" ]; then
+    say "3: deadline: stopping what is unfinished"
+    pkill -P $$ 2>/dev/null; pkill -f "physiclear_recipe.sh" 2>/dev/null
+    pkill -f "tacreasoner (train|evaluate-physiclear|build-cot)" 2>/dev/null; pkill -f touch_control.py 2>/dev/null
+fi
+wait 2>/dev/null
+say "models: $(ls -d "$W"/runs/*/stage2/model/config.json 2>/dev/null | wc -l); evaluated: $(ls "$W"/eval_seed/*/octopi.json 2>/dev/null | wc -l)"
