@@ -3,7 +3,8 @@
     python -m torch.distributed.run --nproc_per_node 2 tests/train/ddp_worker.py CONFIG.json OUT_DIR [STAGE]
 
 Reads a ``TrainConfig.to_dict()`` JSON, runs ``train_stage(config, STAGE)`` (default 2) and writes this process's final
-trainable parameters to ``OUT_DIR/rank{RANK}.safetensors``. The trainer saves on the main process
+trainable parameters to ``OUT_DIR/rank{RANK}.safetensors`` (and its last torch seed to ``rank{RANK}.json``);
+``POISON=RANK:STEP`` makes that process's loss NaN at that step. The trainer saves on the main process
 only, so the weights are caught with :func:`capture_trainable_weights` (also used by the test for its
 1-process reference run, so both sides are captured the same way).
 """
@@ -68,14 +69,22 @@ def main(config_json: str, out_dir: str, stage: str = "2") -> None:
     from tacreasoner.train.trainer import train_stage
 
     config = TrainConfig.from_dict(json.loads(Path(config_json).read_text(encoding="utf-8")))
-    with capture_trainable_weights() as weights:
-        result = train_stage(config, int(stage))
     rank = int(os.environ.get("RANK", "0"))
+    hook = None
+    if os.environ.get("POISON"):  # "RANK:STEP": that process's loss becomes NaN at that (1-based) step
+        bad_rank, bad_step = (int(x) for x in os.environ["POISON"].split(":"))
+
+        def hook(step: int, _micro: int, loss: torch.Tensor) -> torch.Tensor:
+            return loss * float("nan") if (rank, step + 1) == (bad_rank, bad_step) else loss
+
+    with capture_trainable_weights() as weights:
+        result = train_stage(config, int(stage), loss_hook=hook)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     save_file(weights, str(out / f"rank{rank}.safetensors"))
     (out / f"rank{rank}.json").write_text(json.dumps({"final_loss": result.final_loss, "steps": result.steps,
-                                                      "world_size": int(os.environ.get("WORLD_SIZE", "1"))}))
+                                                      "world_size": int(os.environ.get("WORLD_SIZE", "1")),
+                                                      "torch_seed": torch.initial_seed()}))
 
 
 if __name__ == "__main__":

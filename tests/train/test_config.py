@@ -230,8 +230,8 @@ def test_the_paper_configs_hold_the_paper_settings(name: str, llm: str, steps: i
     assert config.stage2.lr == 2e-4 and config.stage2.steps == steps <= 10000
     assert config.runtime.mixed_precision == "bf16" and config.runtime.log_with == "tensorboard"
     assert config.runtime.checkpoint_every == 500
-    for stage in (config.stage1, config.stage2):  # global batch on the paper's 2 GPUs
-        assert stage.batch_size * stage.grad_accum * 2 == 32
+    for stage in (config.stage1, config.stage2):  # the paper's global batch, on its 2 GPUs or any other count
+        assert stage.global_batch == 32 and stage.micro_batch("stage", 2) * stage.grad_accum * 2 == 32
 
 
 # ------------------------------------------------------------------------------------------ the command
@@ -387,3 +387,27 @@ def test_a_shipped_config_loads_by_name_from_any_directory(tmp_path: Path, monke
     assert config.model.appearance == "runs/effnet" and config.data.stage2_data == "plain"
     with pytest.raises(FileNotFoundError, match="shipped one by name: physiclear-smollm2-cpu"):
         load_train_config("physiclear-smollm2-gpu")
+
+
+def test_the_global_batch_gives_each_process_its_micro_batch() -> None:
+    from tacreasoner.train.config import StageSettings
+
+    settings = StageSettings(batch_size=16, grad_accum=2, global_batch=32)
+    assert [settings.micro_batch("stage2", n) for n in (1, 2, 4, 8, 16)] == [16, 8, 4, 2, 1]
+    with pytest.raises(ValueError, match=r"stage2.global_batch 32 does not split into 3 process\(es\) × grad_accum 2 "
+                                         r"equal micro-batches: make it a multiple of 6"):
+        settings.micro_batch("stage2", 3)
+    with pytest.raises(ValueError, match="does not split into 32 process"):
+        settings.micro_batch("stage2", 32)  # 32 × 2 accumulation steps need 64 examples
+
+
+def test_several_processes_without_a_stated_global_batch_are_refused_with_the_numbers() -> None:
+    from tacreasoner.train.config import StageSettings
+
+    settings = StageSettings(batch_size=16, grad_accum=1)
+    assert settings.micro_batch("stage1", 1) == 16  # one process: batch_size as before
+    with pytest.raises(ValueError, match=r"stage1.global_batch is not set and 8 processes train: batch_size 16 × "
+                                         r"grad_accum 1 × 8 processes would make the global batch 128, not the 16 of "
+                                         r"one process; state it \(--set stage1.global_batch=16\)"):
+        settings.micro_batch("stage1", 8)
+

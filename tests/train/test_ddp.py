@@ -8,6 +8,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -19,7 +20,7 @@ from trainsetup import tiny_config, training_inputs
 from tacreasoner.train.trainer import train_stage
 
 WORKER = Path(__file__).with_name("ddp_worker.py")
-TIMEOUT_S = 300
+TIMEOUT_S = 600  # a bound for hangs; a launch takes ~30 s alone, 300+ on 2 cores shared with other jobs
 STEPS = 3
 
 
@@ -28,15 +29,17 @@ def inputs(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) ->
     return training_inputs(small_sim_dataset, tmp_path_factory.mktemp("train_inputs"))
 
 
-def _config(inputs: dict[str, Path], out: Path, batch_size: int):
+def _config(inputs: dict[str, Path], out: Path, batch_size: int = 4, global_batch: int | None = None):
     # Stage II straight from the LLM; no dropout anywhere, so the runs differ only in how the batch is split
-    return tiny_config(inputs, out, stage1={"skip": True}, stage2={"steps": STEPS, "batch_size": batch_size},
+    stage2 = {"steps": STEPS, "batch_size": batch_size, "global_batch": global_batch}
+    return tiny_config(inputs, out, stage1={"skip": True}, stage2=stage2,
                        lora={"r": 8, "alpha": 16, "dropout": 0.0},
                        runtime={"threads": 1, "log_with": "none", "progress": False, "mixed_precision": "no"})
 
 
-def _launch_two_processes(config_json: Path, weights_dir: Path, port: int, stage: int = 2) -> None:
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "TOKENIZERS_PARALLELISM": "false"}
+def _launch_two_processes(config_json: Path, weights_dir: Path, port: int, stage: int = 2, *, poison: str = "",
+                          ) -> subprocess.CompletedProcess:
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "TOKENIZERS_PARALLELISM": "false", "POISON": poison}
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "--master_addr", "127.0.0.1",
            "--master_port", str(port), str(WORKER), str(config_json), str(weights_dir), str(stage)]
     try:
@@ -44,7 +47,9 @@ def _launch_two_processes(config_json: Path, weights_dir: Path, port: int, stage
     except subprocess.TimeoutExpired as exc:
         stderr = exc.stderr.decode(errors="replace") if isinstance(exc.stderr, bytes) else exc.stderr or ""
         pytest.fail(f"torch.distributed.run did not finish in {TIMEOUT_S} s; stderr tail:\n{stderr[-4000:]}")
-    assert done.returncode == 0, f"torch.distributed.run exited {done.returncode}; stderr tail:\n{done.stderr[-4000:]}"
+    if not poison:
+        assert done.returncode == 0, f"torch.distributed.run exited {done.returncode}; stderr:\n{done.stderr[-4000:]}"
+    return done
 
 
 def _losses(run: Path) -> list[float]:
@@ -56,7 +61,7 @@ def test_two_processes_stay_in_sync_and_match_one_process_with_the_same_global_b
     ddp_run, single_run = tmp_path / "ddp", tmp_path / "single"
     ddp_run.mkdir()
     config_json = ddp_run / "config.json"
-    config_json.write_text(json.dumps(_config(inputs, ddp_run, batch_size=2).to_dict()))
+    config_json.write_text(json.dumps(_config(inputs, ddp_run, global_batch=4).to_dict()))
     _launch_two_processes(config_json, tmp_path / "weights", free_port())
 
     run_info = json.loads((ddp_run / "stage2" / "run.json").read_text())
@@ -68,6 +73,7 @@ def test_two_processes_stay_in_sync_and_match_one_process_with_the_same_global_b
     rank1 = load_file(str(tmp_path / "weights" / "rank1.safetensors"))
     infos = [json.loads((tmp_path / "weights" / f"rank{r}.json").read_text()) for r in (0, 1)]
     assert [i["world_size"] for i in infos] == [2, 2] and infos[0]["final_loss"] == infos[1]["final_loss"]
+    assert infos[0]["torch_seed"] != infos[1]["torch_seed"], "both processes drew from one seed (dropout alike)"
 
     # (a) DDP keeps the ranks identical: same gradients (all-reduced), same updates
     assert rank0.keys() == rank1.keys()
@@ -78,7 +84,7 @@ def test_two_processes_stay_in_sync_and_match_one_process_with_the_same_global_b
 
     # (b) 2 processes × batch 2 = 1 process × batch 4 (same examples per step, same token normalisation)
     with capture_trainable_weights() as single:
-        result = train_stage(_config(inputs, single_run, batch_size=4), 2)
+        result = train_stage(_config(inputs, single_run, batch_size=4), 2)  # the same global batch, one process
     assert result.steps == STEPS
     assert single.keys() == rank0.keys()
     for name in single:
@@ -94,8 +100,9 @@ def test_the_defaults_prompt_dependent_parts_train_under_ddp_in_both_stages(inpu
     from trainsetup import ENCODER
 
     encoder = {**ENCODER, "cross_video": 3, "cross_video_names": True, "clip_reader": True}
-    config = tiny_config(inputs, tmp_path / "run", model={"encoder": encoder}, stage1={"steps": STEPS, "batch_size": 2},
-                         stage2={"steps": STEPS, "batch_size": 2}, lora={"r": 8, "alpha": 16, "dropout": 0.0},
+    batch = {"steps": STEPS, "global_batch": 4}
+    config = tiny_config(inputs, tmp_path / "run", model={"encoder": encoder}, stage1=batch,
+                         stage2=batch, lora={"r": 8, "alpha": 16, "dropout": 0.0},
                          runtime={"threads": 1, "log_with": "none", "progress": False, "mixed_precision": "no"})
     (tmp_path / "run").mkdir()
     config_json = tmp_path / "run" / "config.json"
@@ -116,3 +123,19 @@ def test_the_defaults_prompt_dependent_parts_train_under_ddp_in_both_stages(inpu
             assert torch.equal(rank0[name], rank1[name]), f"Stage {stage}: {name} differs between the ranks"
     assert json.loads((tmp_path / "run" / "stage2" / "run.json").read_text())["clip_reader"]
     assert any("clip_reader" in n for n in rank0)  # Stage II trains the reader's level vectors
+
+
+def test_a_non_finite_loss_on_one_process_stops_every_process_promptly(inputs, tmp_path, free_port) -> None:
+    """Rank 1's loss turns NaN at step 2: both ranks raise at that step (rank 0 would otherwise wait in the
+    gradients' all-reduce until the launcher's timeout)."""
+    run = tmp_path / "run"
+    run.mkdir()
+    config_json = run / "config.json"
+    config_json.write_text(json.dumps(_config(inputs, run, global_batch=4).to_dict()))
+    started = time.perf_counter()
+    done = _launch_two_processes(config_json, tmp_path / "weights", free_port(), poison="1:2")
+    assert done.returncode != 0
+    assert time.perf_counter() - started < TIMEOUT_S / 2
+    assert "not finite at step 2 (micro-batch 1 of 1) on process(es) [1]; here nan" in done.stderr
+    assert "on process(es) [1]; this process stops too" in done.stderr, done.stderr[-3000:]
+    assert not (tmp_path / "weights").exists()

@@ -138,9 +138,10 @@ def test_quickstart_touchcot_is_the_brief_first_rules_teacher_with_repeats_kept(
 def test_distributed_config_keeps_the_global_batch_and_refuses_an_uneven_split(tmp_path: Path) -> None:
     config = quickstart_config(QuickstartPaths(tmp_path), 0)
     split = distributed_config(config, 2, 2)
-    assert split.stage2.batch_size * 2 == config.stage2.batch_size
+    assert split.stage2.global_batch == config.stage2.batch_size * config.stage2.grad_accum
+    assert split.stage2.micro_batch("stage2", 2) * 2 == config.stage2.batch_size
     assert split.stage1 == config.stage1 and split.runtime.threads == 1
-    with pytest.raises(ValueError, match="does not split over 3 processes"):
+    with pytest.raises(ValueError, match=r"does not split into 3 process\(es\)"):
         distributed_config(config, 2, 3)
 
 

@@ -119,9 +119,45 @@ def test_non_finite_loss_stops_naming_the_step_and_examples(inputs, tmp_path) ->
     def poison(step: int, micro: int, loss: torch.Tensor) -> torch.Tensor:
         return loss * float("nan") if step == 2 else loss
 
-    with pytest.raises(NonFiniteLossError, match=r"nan at step 3 \(micro-batch 1 of 1.*examples \['"):
+    with pytest.raises(NonFiniteLossError,
+                       match=r"not finite at step 3 \(micro-batch 1 of 1\) on process\(es\) \[0\]; here nan on "
+                             r"examples \['"):
         train_stage(config, 1, loss_hook=poison)
     assert not (tmp_path / "stage1" / "model").exists()
+
+
+def test_a_bf16_llm_trains_fp32_master_weights_under_autocast(inputs, tmp_path) -> None:
+    """The frozen LLM stays bf16; every trained tensor (temporal branch, fusion, projector, new token rows, LoRA)
+    is fp32 in the checkpoints, both stages train, and the saved model loads."""
+    from tacreasoner.model.build import load_model
+
+    config = tiny_config(inputs, tmp_path, model={"dtype": "bfloat16"}, stage1={"steps": 2}, stage2={"steps": 2},
+                         runtime={"mixed_precision": "bf16"})
+    for stage in (1, 2):
+        train_stage(config, stage)
+        checkpoint = sorted((tmp_path / f"stage{stage}" / "checkpoints").glob("step-*"))[-1]
+        weights = load_file(str(checkpoint / "model.safetensors"))
+        assert weights and {str(w.dtype) for w in weights.values()} == {"torch.float32"}, stage
+    model, _ = load_model(tmp_path / "stage2" / "model")
+    assert model.language_model.model.layers[0].self_attn.q_proj.weight.dtype == torch.bfloat16
+
+
+def test_a_small_update_survives_in_fp32_master_weights_and_not_in_bf16() -> None:
+    from tacreasoner.train.trainer import master_weights_in_fp32
+
+    frozen, trained = torch.nn.Linear(4, 4).to(torch.bfloat16), torch.nn.Linear(4, 4).to(torch.bfloat16)
+    frozen.requires_grad_(False)
+    module = torch.nn.Sequential(frozen, trained)
+    with torch.no_grad():
+        trained.weight.fill_(1.0)
+        stepped = trained.weight + 1e-4  # the size of an Adam step at lr 1e-4 on a weight of 1
+    assert torch.equal(stepped, trained.weight), "bf16 keeps such a step (the premise no longer holds)"
+    assert master_weights_in_fp32(module, "bf16") == 20
+    assert trained.weight.dtype == torch.float32 and frozen.weight.dtype == torch.bfloat16
+    with torch.no_grad():
+        assert not torch.equal(trained.weight + 1e-4, trained.weight)
+    with pytest.raises(ValueError, match=r"runtime\.mixed_precision: bf16"):
+        master_weights_in_fp32(torch.nn.Linear(2, 2).to(torch.bfloat16), "no")
 
 
 def test_stage_two_without_stage_one_output_is_refused_before_loading(inputs, tmp_path) -> None:

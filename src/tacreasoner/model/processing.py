@@ -6,7 +6,10 @@ question (steering the temporal branch) and which are the assistant's (the only 
 question mask, 1 marks a question token and ``2 + k`` a token of the k-th option's name when the question lists
 named options ("(A) kitchen sponge (B) fake apple …"), which the cross-video layer matches to the videos.
 Token roles come from character offsets in the rendered text, so any chat template works as long
-as rendering the prompt gives a prefix of rendering the whole conversation.
+as rendering the prompt gives a prefix of rendering the whole conversation. What ends an assistant turn
+(ChatML's ``<|im_end|>``, Llama-3's ``<|eot_id|>``, Gemma's ``<end_of_turn>``, Mistral's ``</s>``) is read from
+the template itself, both for the labels (the model must learn to stop) and for ``eos_token_ids`` (generation
+must stop there); templates that refuse a system role get the system text folded into the user turn.
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ from __future__ import annotations
 import json
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -41,6 +44,12 @@ IGNORE_INDEX = -100
 PROCESSOR_CONFIG_NAME = "processor_config.json"
 OPTION_MASK_OFFSET = 2
 """``question_mask`` value of the tokens of the first listed option's name (the k-th's: this + k)."""
+
+SYSTEM_FOLD_SEPARATOR = "\n\n"
+"""Between the system text and the user's when a template without a system role gets them as one user turn."""
+_PROBE_USER = "Probe question seven."
+_PROBE_ANSWER = "Probe answer seven."
+_PROBE_SYSTEM = "Probe system seven."
 
 _OPTION_END = re.compile(r"[.?!;\n]")
 _OPTION_TRAILER = re.compile(r"(?:[\s,:;]|\b(?:and|or)\b)+$", re.IGNORECASE)
@@ -121,6 +130,7 @@ class TacReasonerProcessor:
         if getattr(tokenizer, "chat_template", None) is None:
             raise ValueError("the tokenizer has no chat template: "
                              "run tacreasoner.model.tokenizer.prepare_tokenizer on it")
+        self._template_facts: dict[tuple[Any, ...], Any] = {}
 
     @classmethod
     def for_encoder(cls, tokenizer: PreTrainedTokenizerBase, encoder: TactileEncoderConfig, **kwargs: Any,
@@ -139,13 +149,48 @@ class TacReasonerProcessor:
                              f"on it and resize the model's embeddings")
         return int(ids[0])
 
+    def _cached(self, name: str, compute: Callable[[], Any]) -> Any:
+        """``compute()`` once per chat template and vocabulary: generation asks for these facts at every call,
+        and a tokenizer changed after the processor was built (a new template, added tokens) is read again."""
+        tok = self.tokenizer
+        key = (name, str(getattr(tok, "chat_template", None)), len(tok), tok.eos_token_id)
+        if key not in self._template_facts:
+            self._template_facts[key] = compute()
+        return self._template_facts[key]
+
     @property
     def eos_token_ids(self) -> list[int]:
-        """Generation stops at the end of the assistant turn (``<|im_end|>``) or at the tokenizer's eos."""
-        ids = {self._single_token_id(IM_END)} if IM_END in self.tokenizer.get_vocab() else set()
+        """Generation stops where the chat template ends an assistant turn (``<|im_end|>``, ``<|eot_id|>``,
+        ``<end_of_turn>``, …) or at the tokenizer's eos; ``<|im_end|>`` also whenever the vocabulary has it."""
+        return list(self._cached("eos", self._eos_token_ids))
+
+    def _eos_token_ids(self) -> list[int]:
+        ids = set(self._end_of_turn_ids())
+        if IM_END in self.tokenizer.get_vocab():
+            ids.add(self._single_token_id(IM_END))
         if self.tokenizer.eos_token_id is not None:
             ids.add(int(self.tokenizer.eos_token_id))
         return sorted(ids)
+
+    def _end_of_turn_ids(self) -> list[int]:
+        """The first special (or added) token the template renders after an assistant's content: its end-of-turn
+        marker. Found by rendering a tiny user/assistant exchange; [] when the template renders none."""
+        messages = [{"role": "user", "content": _PROBE_USER}, {"role": "assistant", "content": _PROBE_ANSWER}]
+        try:
+            text = self._render(messages, False)
+        except ValueError:
+            return []
+        end = text.rfind(_PROBE_ANSWER)
+        if end < 0:
+            return []
+        tail = text[end + len(_PROBE_ANSWER):]
+        tok = self.tokenizer
+        added = {int(i) for i in tok.get_added_vocab().values()} | {int(i) for i in tok.all_special_ids}
+        added.discard(self.tactile_token_id)
+        for token_id in tok(tail, add_special_tokens=False)["input_ids"]:
+            if int(token_id) in added:
+                return [int(token_id)]
+        return []
 
     # ------------------------------------------------------------------ videos
     def preprocess_videos(self, videos: Sequence[VideoInput], *, seed: int | None = None) -> dict[str, torch.Tensor]:
@@ -178,32 +223,97 @@ class TacReasonerProcessor:
         return out
 
     def _render(self, messages: list[dict[str, str]], add_generation_prompt: bool) -> str:
-        return self.tokenizer.apply_chat_template(messages, tokenize=False, add_generation_prompt=add_generation_prompt)
+        """The chat template's text; a template that refuses the conversation is a ValueError saying so."""
+        from jinja2.exceptions import TemplateError
+
+        try:
+            return self.tokenizer.apply_chat_template(messages, tokenize=False,
+                                                      add_generation_prompt=add_generation_prompt)
+        except TemplateError as exc:
+            roles = ", ".join(str(m.get("role")) for m in messages)
+            raise ValueError(f"the tokenizer's chat template cannot render this conversation (roles: {roles}): "
+                             f"{exc}") from exc
+
+    @property
+    def template_takes_system(self) -> bool:
+        """Whether the chat template renders a system turn; Gemma's, for one, raises on it instead."""
+        return bool(self._cached("system", self._probe_system))
+
+    def _probe_system(self) -> bool:
+        system = [{"role": "system", "content": _PROBE_SYSTEM}, {"role": "user", "content": _PROBE_USER}]
+        try:
+            self._render(system, True)
+        except ValueError:
+            try:
+                self._render(system[1:], True)
+            except ValueError:
+                return True  # the template fails for another reason: let the real conversation report it
+            return False
+        return True
+
+    def _fold_system(self, messages: list[dict[str, str]]) -> tuple[list[dict[str, str]], list[int]]:
+        """For templates without a system role: each system text goes in front of the next user turn's (joined
+        by ``SYSTEM_FOLD_SEPARATOR``), as those models' own instructions suggest; also returns, per turn, how many
+        leading characters were folded in (not question text). Unchanged when the template takes a system role."""
+        if self.template_takes_system or all(m["role"] != "system" for m in messages):
+            return messages, [0] * len(messages)
+        out: list[dict[str, str]] = []
+        skips: list[int] = []
+        pending: list[str] = []
+        for m in messages:
+            if m["role"] == "system":
+                if m["content"].strip():
+                    pending.append(m["content"])
+                continue
+            if pending and m["role"] == "user":
+                prefix = SYSTEM_FOLD_SEPARATOR.join(pending) + SYSTEM_FOLD_SEPARATOR
+                out.append({**m, "content": prefix + m["content"]})
+                skips.append(len(prefix))
+                pending = []
+            else:
+                out.append(m)
+                skips.append(0)
+        if pending:
+            raise ValueError("the tokenizer's chat template takes no system role, and no user turn follows the "
+                             "system text to carry it")
+        return out, skips
 
     def encode_conversation(self, messages: list[dict[str, str]], *, add_generation_prompt: bool) -> _Encoded:
         """Token ids with labels (assistant turns only) and the question mask (user text, no placeholders: 1, or
-        ``OPTION_MASK_OFFSET + k`` on the name of the k-th option the last user turn lists)."""
+        ``OPTION_MASK_OFFSET + k`` on the name of the k-th option the last user turn lists).
+
+        An assistant turn's labels cover its content and the end-of-turn marker the template renders right after
+        it (whatever follows the content up to the end of the turn, trailing whitespace excepted), so the model
+        learns to stop under any template. When the template refuses a system role (Gemma's raises), the system
+        text is folded into the next user turn (``_fold_system``); it is then neither labelled nor question."""
         expanded = [{**m, "content": self.expand(m["content"])} for m in messages]
+        expanded, skips = self._fold_system(expanded)
         text = self._render(expanded, add_generation_prompt)
         user_spans, assistant_spans, options = [], [], []
         previous = ""
-        for i, message in enumerate(expanded):
+        for i, (message, skip) in enumerate(zip(expanded, skips, strict=True)):
             upto = self._render(expanded[: i + 1], False)
             if not upto.startswith(previous) or not text.startswith(upto):
                 raise ValueError("the tokenizer's chat template does not render a conversation's first turns as a "
                                  "prefix of the whole: token roles cannot be found")
-            start = upto.find(message["content"], len(previous))
+            content = message["content"]
+            start = upto.find(content, len(previous))
+            if start < 0 and content.strip():  # templates that trim the content (Llama-3's, Gemma's)
+                skip = max(0, skip - (len(content) - len(content.lstrip())))
+                content = content.strip()
+                start = upto.find(content, len(previous))
             if start < 0:
                 raise ValueError(f"the chat template changed the content of the {message['role']} turn")
-            span = (start, start + len(message["content"]))
+            span = (start + min(skip, len(content)), start + len(content))
             if message["role"] == "user":
                 user_spans.append(span)
-                listed = option_spans(message["content"], self._option_pattern) if self._option_pattern else []
+                question = text[span[0]:span[1]]
+                listed = option_spans(question, self._option_pattern) if self._option_pattern else []
                 options = [(span[0] + a, span[0] + b) for a, b in listed]
             elif message["role"] == "assistant":
-                # the turn's end marker (<|im_end|>) is part of what the model must learn to produce
-                end = upto.find(IM_END, span[1])
-                assistant_spans.append((span[0], end + len(IM_END) if end >= 0 else span[1]))
+                # what the template closes the turn with (<|im_end|>, <|eot_id|>, <end_of_turn>…) is part of what
+                # the model must learn to produce; the newlines between turns are not
+                assistant_spans.append((span[0], span[1] + len(upto[span[1]:].rstrip())))
             previous = upto
         enc = self.tokenizer(text, add_special_tokens=False, return_offsets_mapping=True)
         ids = list(enc["input_ids"])

@@ -154,8 +154,12 @@ def _check_task_names(names: Iterable[str], key: str) -> None:
 class StageSettings:
     steps: int = 200
     batch_size: int = 8
-    """Examples per device per micro-batch."""
+    """Examples per micro-batch of one process (when ``global_batch`` is not set)."""
     grad_accum: int = 1
+    global_batch: int | None = None
+    """Examples per optimizer step over all processes. When set, each process's micro-batch is derived from it
+    (global_batch / (processes × grad_accum)), so a launch on more or fewer GPUs keeps the recipe's batch; more than
+    one process needs it (a per-process batch_size would silently grow the global batch with the process count)."""
     lr: float = 2e-4
     """Learning rate of every trained part except the projector (LoRA in Stage II, temporal branch in Stage I)."""
     projector_lr: float | None = None
@@ -171,6 +175,8 @@ class StageSettings:
         for key in ("steps", "batch_size", "grad_accum"):
             if int(getattr(self, key)) < 1:
                 raise ValueError(f"{name}.{key} must be at least 1, got {getattr(self, key)}")
+        if self.global_batch is not None and self.global_batch < 1:
+            raise ValueError(f"{name}.global_batch must be at least 1, got {self.global_batch}")
         for key in ("lr", "projector_lr"):
             value = getattr(self, key)
             if value is not None and not (isinstance(value, int | float) and value > 0 and math.isfinite(value)):
@@ -181,6 +187,24 @@ class StageSettings:
             raise ValueError(f"{name}.min_lr_ratio must be in [0, 1], got {self.min_lr_ratio}")
         if self.weight_decay < 0 or self.max_grad_norm <= 0:
             raise ValueError(f"{name}: weight_decay must be ≥ 0 and max_grad_norm > 0")
+
+    def micro_batch(self, name: str, processes: int) -> int:
+        """Examples per process per micro-batch for ``processes`` processes; refuses, with the numbers, a launch
+        that would change the global batch or cannot split it evenly."""
+        if self.global_batch is None:
+            if processes > 1:
+                one = self.batch_size * self.grad_accum
+                raise ValueError(f"{name}.global_batch is not set and {processes} processes train: batch_size "
+                                 f"{self.batch_size} × grad_accum {self.grad_accum} × {processes} processes would make "
+                                 f"the global batch {one * processes}, not the {one} of one process; state it "
+                                 f"(--set {name}.global_batch={one})")
+            return self.batch_size
+        per, rest = divmod(self.global_batch, processes * self.grad_accum)
+        if rest or per < 1:
+            raise ValueError(f"{name}.global_batch {self.global_batch} does not split into {processes} process(es) × "
+                             f"grad_accum {self.grad_accum} equal micro-batches: make it a multiple of "
+                             f"{processes * self.grad_accum}")
+        return per
 
 
 @dataclass

@@ -126,13 +126,12 @@ def train_seed(config: TrainConfig, processes: int = 1) -> dict[str, Any]:
 def distributed_config(config: TrainConfig, stage: int, processes: int) -> TrainConfig:
     """``config`` split over ``processes`` ranks: the same global batch, one thread each."""
     settings = config.stage(stage)
-    if settings.batch_size % processes:
-        raise ValueError(f"stage{stage}.batch_size {settings.batch_size} does not split over {processes} processes; "
-                         f"choose a process count that divides it")
     data = config.to_dict()
-    data[f"stage{stage}"]["batch_size"] = settings.batch_size // processes
+    data[f"stage{stage}"]["global_batch"] = settings.global_batch or settings.batch_size * settings.grad_accum
     data["runtime"]["threads"] = 1
-    return TrainConfig.from_dict(data, source=f"quickstart settings over {processes} processes")
+    split = TrainConfig.from_dict(data, source=f"quickstart settings over {processes} processes")
+    split.stage(stage).micro_batch(f"stage{stage}", processes)  # refuses a batch that does not split evenly
+    return split
 
 
 def _train_stage_distributed(config: TrainConfig, stage: int, processes: int) -> None:

@@ -20,6 +20,7 @@ Stage II: merged) and, for Stage II, ``adapter/`` (LoRA + projector, PEFT format
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import time
@@ -47,7 +48,7 @@ from tacreasoner.train.state import (
 )
 from tacreasoner.train.threads import free_threads
 
-__all__ = ["NonFiniteLossError", "StageResult", "check_inputs", "train_stage"]
+__all__ = ["NonFiniteLossError", "StageResult", "check_inputs", "master_weights_in_fp32", "step_seed", "train_stage"]
 
 CHECKPOINTS = "checkpoints"
 LOG_FILE = "train_log.jsonl"
@@ -210,6 +211,7 @@ def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_a
     # Under torchrun on a machine without CUDA, Accelerate sets up (gloo) DDP only when told it runs on the CPU;
     # otherwise every process would train alone and all of them would write the same output_dir.
     world = int(os.environ.get("WORLD_SIZE", "1"))
+    settings.micro_batch(f"stage{stage}", world)  # a launch that would change the global batch fails here
     # Parts of the model speak only in some prompts (the comparator's name matcher in OSC prompts, the clip
     # reader in one-video prompts), so a batch can leave trainable parameters without a gradient, which plain
     # DDP refuses; finding them costs one walk of the autograd graph per step.
@@ -246,6 +248,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
     if config.model.gradient_checkpointing:
         enable_activation_checkpointing(model.language_model)
     trained = configure_stage(model, stage, config.lora)
+    master_weights_in_fp32(trained, accelerator.mixed_precision)
     refuse_what_fsdp_would_break(accelerator, trained, stage)
     base = model  # the TacReasonerForCausalLM inside (PEFT wraps it in Stage II)
 
@@ -284,7 +287,8 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
                   if stage == 1 and base.encoder_config.cross_video_loss > 0 else None)
 
     world = accelerator.num_processes
-    global_batch = settings.batch_size * settings.grad_accum * world
+    micro_batch = settings.micro_batch(f"stage{stage}", world)
+    global_batch = micro_batch * settings.grad_accum * world
     lengths = [len(e.input_ids) for e in tokenized]
     optimizer = torch.optim.AdamW(_param_groups(trained, settings.lr, settings.projector_lr or settings.lr,
                                                 settings.weight_decay), betas=(0.9, 0.999))
@@ -308,7 +312,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
                 if name in weights:
                     p.copy_(weights[name])
         start = state.step
-    _configure_deepspeed(accelerator, settings)
+    _configure_deepspeed(accelerator, settings, micro_batch)
     trained, optimizer = accelerator.prepare(trained, optimizer)
     trained.train()
 
@@ -338,9 +342,11 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
             return StageResult(stage, out, step, last_loss, 0.0, len(tokenized), start)
         indices = batch_plan(lengths, global_batch, step, config.seed, config.data.group_by_length,
                              config.data.length_group_batches)
-        mine = indices[rank * settings.batch_size * settings.grad_accum:(rank + 1) * settings.batch_size
-                       * settings.grad_accum]
-        micro = [mine[i:i + settings.batch_size] for i in range(0, len(mine), settings.batch_size)]
+        mine = indices[rank * micro_batch * settings.grad_accum:(rank + 1) * micro_batch * settings.grad_accum]
+        micro = [mine[i:i + micro_batch] for i in range(0, len(mine), micro_batch)]
+        # dropout and any other draw: a pure function of (seed, process, step), so ranks differ and a resumed run
+        # draws what the uninterrupted one would
+        torch.manual_seed(step_seed(config.seed, rank, step))
         global_tokens = sum(tokenized[i].n_labels for i in indices)
         step_loss = torch.zeros((), device=accelerator.device)
         for m, chunk in enumerate(micro):
@@ -352,12 +358,16 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
                 loss = trained(**batch, num_items_in_batch=global_tokens / world, loss_only=True).loss
                 if loss_hook is not None:
                     loss = loss_hook(step, m, loss)
-                if not torch.isfinite(loss.detach()).all():
+                bad = _non_finite_processes(accelerator, loss)
+                if bad:  # every process raises together: none is left waiting in the gradients' all-reduce
                     ids = [tokenized[i].key for i in chunk]
+                    mine_bad = rank in bad
                     raise NonFiniteLossError(
-                        f"stage {stage}: the loss is {loss.item()} at step {step + 1} (micro-batch {m + 1} of "
-                        f"{len(micro)}, process {rank}); examples {ids[:8]}. Lower stage{stage}.lr, check the "
-                        f"data of these examples, or use runtime.mixed_precision: no")
+                        f"stage {stage}: the loss is not finite at step {step + 1} (micro-batch {m + 1} of "
+                        f"{len(micro)}) on process(es) {bad}"
+                        + (f"; here {loss.item()} on examples {ids[:8]}" if mine_bad else "; this process stops too")
+                        + f". Lower stage{stage}.lr, check the data of these examples, or use "
+                        f"runtime.mixed_precision: no")
                 accelerator.backward(loss)
             step_loss += loss.detach()
         accelerator.clip_grad_norm_(trained.parameters(), settings.max_grad_norm)
@@ -406,6 +416,20 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
     return StageResult(stage, model_dir, settings.steps, last_loss, train_seconds, len(tokenized), start)
 
 
+def master_weights_in_fp32(trained: torch.nn.Module, mixed_precision: str) -> int:
+    """Every trainable parameter in fp32, whatever the frozen LLM's dtype: a bf16 weight (8 mantissa bits) drops
+    an update smaller than 1/256 of itself, so at lr 2e-4 the temporal branch, fusion and projector would barely
+    move. Compute stays 16-bit under Accelerate's autocast, which a 16-bit LLM therefore needs. Returns how many
+    parameters were converted."""
+    low = [p for p in trained.parameters() if p.requires_grad and p.dtype in (torch.bfloat16, torch.float16)]
+    if low and mixed_precision == "no":
+        raise ValueError(f"model.dtype is {low[0].dtype}, and its trainable parts keep fp32 master weights that "
+                         f"need autocast: set runtime.mixed_precision: bf16 (or fp16), or model.dtype: float32")
+    for p in low:
+        p.data = p.data.float()
+    return sum(p.numel() for p in low)
+
+
 def refuse_what_fsdp_would_break(accelerator: Any, trained: torch.nn.Module, stage: int) -> None:
     """Stop before any work where FSDP2 would train the wrong thing or fail deep inside accelerate.
 
@@ -433,7 +457,7 @@ def refuse_what_fsdp_would_break(accelerator: Any, trained: torch.nn.Module, sta
                          "(configs/accelerate/ddp-2gpu.yaml) or DeepSpeed ZeRO-2; Qwen2.5-7B and 14B are untied")
 
 
-def _configure_deepspeed(accelerator: Any, settings: Any) -> None:
+def _configure_deepspeed(accelerator: Any, settings: Any, micro_batch: int) -> None:
     """DeepSpeed reads the micro-batch size from a DataLoader, which this loop does not use: set it here.
 
     ``accelerator.backward`` steps a DeepSpeed engine after every micro-batch, so accumulation is refused.
@@ -443,7 +467,7 @@ def _configure_deepspeed(accelerator: Any, settings: Any) -> None:
         return
     if settings.grad_accum != 1:
         raise ValueError("under DeepSpeed set grad_accum: 1 (raise batch_size or the number of processes instead)")
-    plugin.deepspeed_config["train_micro_batch_size_per_gpu"] = settings.batch_size
+    plugin.deepspeed_config["train_micro_batch_size_per_gpu"] = micro_batch
     plugin.deepspeed_config["gradient_accumulation_steps"] = 1
 
 
@@ -464,7 +488,26 @@ def _fingerprint(config: TrainConfig, stage: int, world: int) -> dict[str, Any]:
     d = config.to_dict()
     return {"stage": stage, "seed": config.seed, "model": d["model"], "data": d["data"],
             "stage_settings": d[f"stage{stage}"], "lora": d["lora"] if stage == 2 else None,
-            "global_batch": config.stage(stage).batch_size * config.stage(stage).grad_accum * world}
+            "global_batch": _global_batch(config.stage(stage), stage, world)}
+
+
+def _global_batch(settings: Any, stage: int, world: int) -> int:
+    return settings.micro_batch(f"stage{stage}", world) * settings.grad_accum * world
+
+
+def step_seed(seed: int, rank: int, step: int) -> int:
+    """The torch seed of one process's step: distinct per process and per step, and reproducible on resume."""
+    digest = hashlib.blake2b(f"{seed}/{rank}/{step}".encode(), digest_size=8).digest()
+    return int.from_bytes(digest, "little") & (2**63 - 1)
+
+
+def _non_finite_processes(accelerator: Any, loss: torch.Tensor) -> list[int]:
+    """The processes whose loss is NaN or infinite, known to every process (one tiny all-gather with several)."""
+    finite = bool(torch.isfinite(loss.detach()).all())
+    if accelerator.num_processes == 1:
+        return [] if finite else [0]
+    flags = accelerator.gather(torch.tensor([0.0 if finite else 1.0], device=accelerator.device))
+    return [i for i, flag in enumerate(flags.tolist()) if flag]
 
 
 def _flat(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
