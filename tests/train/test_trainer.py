@@ -217,11 +217,12 @@ def test_deepspeed_gets_the_micro_batch_and_refuses_accumulation() -> None:
 
     plugin = SimpleNamespace(deepspeed_config={"train_micro_batch_size_per_gpu": "auto"})
     accelerator = SimpleNamespace(state=SimpleNamespace(deepspeed_plugin=plugin))
-    _configure_deepspeed(accelerator, StageSettings(batch_size=6))
+    settings = StageSettings(global_batch=12)
+    _configure_deepspeed(accelerator, settings, settings.micro_batch("stage2", 2))  # 12 examples over 2 GPUs
     assert plugin.deepspeed_config == {"train_micro_batch_size_per_gpu": 6, "gradient_accumulation_steps": 1}
     with pytest.raises(ValueError, match="grad_accum: 1"):
-        _configure_deepspeed(accelerator, StageSettings(batch_size=6, grad_accum=2))
-    _configure_deepspeed(SimpleNamespace(state=SimpleNamespace()), StageSettings(grad_accum=4))  # no DeepSpeed: no-op
+        _configure_deepspeed(accelerator, StageSettings(batch_size=6, grad_accum=2), 6)
+    _configure_deepspeed(SimpleNamespace(state=SimpleNamespace()), StageSettings(grad_accum=4), 8)  # no DeepSpeed
 
 
 def test_evaluate_and_ask_commands_on_a_trained_model(two_stage_run: Path, inputs, tmp_path) -> None:

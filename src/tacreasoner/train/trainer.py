@@ -229,6 +229,10 @@ def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_a
     finally:
         bar.close()
         accelerator.end_training()
+        if world == 1:  # Accelerate keeps one state per process: let the next run here choose another precision
+            from accelerate.state import AcceleratorState
+
+            AcceleratorState._reset_state(reset_partial_state=True)
         torch.set_num_threads(threads_before)
 
 
