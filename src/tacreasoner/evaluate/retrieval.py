@@ -101,11 +101,13 @@ class RetrievalSummary:
 
 
 def load_encoder(encoder_dir: str | os.PathLike[str]) -> tuple[Any, Any]:
-    """The frozen appearance encoder of a ``pretrain-encoder`` or ``encoder get`` folder and the video processing its
-    inputs need (``video_processing.json`` when the folder has it, else the encoder's frame count and size with the
-    defaults, which is what a model built on it uses)."""
+    """The frozen appearance encoder of a ``pretrain-encoder`` or ``encoder get`` folder (or a Hugging Face VideoMAE
+    one) and the video processing its inputs need (``video_processing.json`` when the folder has it, a VideoMAE's
+    image processor normalisation, else the encoder's frame count and size with the defaults: what a model built on
+    it uses, :func:`tacreasoner.model.build.appearance_video_settings`)."""
     from tacreasoner.model.appearance import CONFIG_NAME, load_appearance
     from tacreasoner.model.video_processing import VideoProcessingConfig
+    from tacreasoner.model.videomae import is_videomae_dir, videomae_video_settings
     from tacreasoner.train.pretrain_encoder import VIDEO_CONFIG_NAME, video_config_for
 
     directory = Path(encoder_dir)
@@ -116,6 +118,9 @@ def load_encoder(encoder_dir: str | os.PathLike[str]) -> tuple[Any, Any]:
     video = None
     if (directory / VIDEO_CONFIG_NAME).is_file():
         video = VideoProcessingConfig.from_dict(json.loads((directory / VIDEO_CONFIG_NAME).read_text()))
+    elif is_videomae_dir(directory):
+        video = VideoProcessingConfig(num_frames=encoder.config.num_frames, image_size=encoder.config.image_size,
+                                      **videomae_video_settings(directory))
     return encoder, video_config_for(encoder.config, video)
 
 

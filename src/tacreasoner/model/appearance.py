@@ -22,7 +22,7 @@ from tacreasoner.model.encoder_config import TactileEncoderConfig
 
 __all__ = ["CONFIG_NAME", "WEIGHTS_NAME", "AppearanceEncoder", "TransformerBlock", "TubeletEmbedding",
            "build_appearance", "init_vit_weights", "load_appearance", "load_safetensors_strict", "num_parameters",
-           "patchify", "save_appearance", "sinusoid_table"]
+           "patchify", "read_appearance_config", "save_appearance", "sinusoid_table"]
 
 CONFIG_NAME = "config.json"
 WEIGHTS_NAME = "model.safetensors"
@@ -212,7 +212,8 @@ class AppearanceEncoder(nn.Module):
     @classmethod
     def from_pretrained(cls, directory: str | os.PathLike[str], *, dtype: torch.dtype | None = None,
                         config: TactileEncoderConfig | None = None) -> AppearanceEncoder:
-        """Load a directory written by :meth:`save_pretrained`; every key and shape is checked.
+        """Load a directory written by :meth:`save_pretrained` (or a Hugging Face VideoMAE one, see
+        :func:`load_appearance`); every key and shape is checked.
 
         ``config`` overrides the saved config (e.g. another ``num_frames``: the weights do not depend on it).
         """
@@ -252,8 +253,17 @@ def save_appearance(model: nn.Module, save_directory: str | os.PathLike[str]) ->
 def load_appearance(directory: str | os.PathLike[str], *, dtype: torch.dtype | None = None,
                     config: TactileEncoderConfig | None = None) -> nn.Module:
     """The appearance branch saved in ``directory`` (the ViT or a backbone, as its config.json says); every key and
-    shape is checked. ``config`` overrides the saved config."""
+    shape is checked. ``config`` overrides the saved config.
+
+    A Hugging Face VideoMAE directory (config.json with ``"model_type": "videomae"``, as ``VideoMAEModel`` /
+    ``VideoMAEForPreTraining`` / ``VideoMAEForVideoClassification.save_pretrained`` write it) is taken as it is, so a
+    VideoMAE-Base needs no conversion: :func:`tacreasoner.model.videomae.videomae_appearance` builds the ViT."""
+    from tacreasoner.model.videomae import is_videomae_dir, videomae_appearance  # here: it imports this module
+
     directory = Path(directory)
+    if is_videomae_dir(directory):
+        encoder = videomae_appearance(directory, config)
+        return encoder.to(dtype) if dtype is not None else encoder
     if config is None:
         config = _read_config(directory)
     model = build_appearance(config)
@@ -263,10 +273,22 @@ def load_appearance(directory: str | os.PathLike[str], *, dtype: torch.dtype | N
     return model.to(dtype) if dtype is not None else model
 
 
+def read_appearance_config(directory: str | os.PathLike[str]) -> TactileEncoderConfig:
+    """The encoder config of an appearance directory (ours or a VideoMAE one) without loading its weights: its shape,
+    for planning memory or checking a config before the model is built."""
+    from tacreasoner.model.videomae import is_videomae_dir, videomae_encoder_config
+
+    directory = Path(directory)
+    return videomae_encoder_config(directory) if is_videomae_dir(directory) else _read_config(directory)
+
+
 def _read_config(directory: Path) -> TactileEncoderConfig:
     path = directory / CONFIG_NAME
     data = read_json_object(path, "an AppearanceEncoder directory written by save_pretrained / "
-                                  "`tacreasoner pretrain-encoder`")
+                                  "`tacreasoner pretrain-encoder`, or a Hugging Face VideoMAE directory")
+    if "model_type" in data:  # no field of ours: another Hugging Face model, which the key check would only list
+        raise ValueError(f"{path}: a Hugging Face {data['model_type']!r} model; the appearance branch takes a "
+                         f"`pretrain-encoder` / `encoder get` output or a VideoMAE directory")
     return TactileEncoderConfig.from_dict(data, what=f"{path}: unknown encoder config keys")
 
 

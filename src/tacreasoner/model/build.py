@@ -28,8 +28,9 @@ def build_model(llm: str | os.PathLike[str] | PreTrainedModel, *, tokenizer: Pre
 
     The tokenizer (``llm``'s own by default) gets the tactile token, reasoning tags and a chat
     template where missing; the rows of tokens it gains are recorded as ``new_token_ids`` so Stage I
-    trains them. ``appearance``: a ``pretrain-encoder`` or ``encoder get`` output directory; its shape wins, and its
-    ``video_processing.json`` sets how frames are prepared unless ``video`` is given.
+    trains them. ``appearance``: a ``pretrain-encoder`` or ``encoder get`` output directory, or a Hugging Face VideoMAE
+    one as ``save_pretrained`` wrote it; its shape wins, and its ``video_processing.json`` (a VideoMAE's image processor
+    normalisation) sets how frames are prepared unless ``video`` is given.
     """
     if tokenizer is None:
         if isinstance(llm, PreTrainedModel):
@@ -51,15 +52,22 @@ def build_model(llm: str | os.PathLike[str] | PreTrainedModel, *, tokenizer: Pre
 def appearance_video_settings(appearance: str | os.PathLike[str]) -> dict[str, Any]:
     """How the appearance directory's encoder wants its frames prepared (``video_processing.json``: sampling,
     background, normalisation), without the frame count and size, which the encoder config fixes. The model's
-    processor uses them, so the frozen branch sees frames prepared as in its own pre-training."""
+    processor uses them, so the frozen branch sees frames prepared as in its own pre-training.
+
+    A Hugging Face VideoMAE directory without ``video_processing.json`` gets its image processor's normalisation
+    (``preprocessor_config.json``'s ``image_mean``/``image_std``, ImageNet's when it has none) on the sensor image as
+    it is: :func:`tacreasoner.model.videomae.videomae_video_settings`."""
+    from tacreasoner.jsonl import read_json_object
     from tacreasoner.model.video_processing import VideoProcessingConfig
+    from tacreasoner.model.videomae import is_videomae_dir, videomae_video_settings
 
     path = Path(appearance) / "video_processing.json"
-    if not path.is_file():
+    if path.is_file():
+        data = VideoProcessingConfig.from_dict(read_json_object(path, "the video processing of an encoder")).to_dict()
+    elif is_videomae_dir(appearance):
+        data = VideoProcessingConfig(**videomae_video_settings(appearance)).to_dict()
+    else:
         return {}
-    from tacreasoner.jsonl import read_json_object
-
-    data = VideoProcessingConfig.from_dict(read_json_object(path, "the video processing of an encoder")).to_dict()
     return {k: v for k, v in data.items() if k not in ("num_frames", "image_size")}
 
 

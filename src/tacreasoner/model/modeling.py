@@ -132,8 +132,8 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         ``vocab_size``: the tokenizer's size after tactile tokens were added; the LM's embeddings grow
         to it when smaller (new rows start at the mean of the old ones). Real checkpoints often have
         spare rows already (Qwen2.5: 152,064 rows for 151,665 tokens) and are left as they are. ``appearance``: a
-        directory saved by ``AppearanceEncoder.save_pretrained`` (``pretrain-encoder``) or holding a pretrained
-        backbone (``tacreasoner encoder get``) to load.
+        directory saved by ``AppearanceEncoder.save_pretrained`` (``pretrain-encoder``), holding a pretrained
+        backbone (``tacreasoner encoder get``), or a Hugging Face VideoMAE directory, to load.
         """
         if not isinstance(llm, PreTrainedModel):
             llm = AutoModelForCausalLM.from_pretrained(llm, **llm_kwargs)

@@ -19,10 +19,16 @@ spellings are read: ``attention.attention.q_bias``/``v_bias`` (checkpoints on th
     encoder.layer.i.output.dense.*                             blocks.i.mlp.fc2.*
     layernorm.*   (absent with use_mean_pooling=True)          norm.*   (else kept fresh)
     —                                                          cls_token (always fresh)
+
+Such a directory is also accepted as ``model.appearance`` as it is (:func:`videomae_appearance`, which
+:func:`~tacreasoner.model.appearance.load_appearance` calls when config.json says ``"model_type": "videomae"``),
+and its image processor's normalisation becomes the model's frame preparation (:func:`videomae_video_settings`).
 """
 
 from __future__ import annotations
 
+import json
+import math
 import os
 import re
 from pathlib import Path
@@ -32,8 +38,22 @@ import torch
 
 from tacreasoner.jsonl import read_json_object
 from tacreasoner.model.appearance import AppearanceEncoder, load_safetensors_strict
+from tacreasoner.model.encoder_config import TactileEncoderConfig
 
-__all__ = ["encoder_config_from_videomae", "load_videomae", "map_videomae_key"]
+__all__ = ["IMAGENET_MEAN", "IMAGENET_STD", "PREPROCESSOR_NAMES", "encoder_config_from_videomae", "is_videomae_dir",
+           "load_videomae", "map_videomae_key", "videomae_appearance", "videomae_encoder_config",
+           "videomae_video_settings"]
+
+IMAGENET_MEAN = (0.485, 0.456, 0.406)
+IMAGENET_STD = (0.229, 0.224, 0.225)
+"""What VideoMAE was pre-trained with (IMAGENET_DEFAULT_MEAN/STD in its repository)."""
+_HF_PROCESSOR_DEFAULT = (0.5, 0.5, 0.5)
+"""transformers' ``VideoMAEImageProcessor`` class default (IMAGENET_STANDARD_*), for a key its file omits."""
+PREPROCESSOR_NAMES = ("preprocessor_config.json", "video_preprocessor_config.json")
+"""Where ``VideoMAEImageProcessor`` / ``VideoMAEVideoProcessor.save_pretrained`` write their settings."""
+CLS_SEED = 0
+"""VideoMAE has no CLS token: ours starts from this fixed seed, so every load of one directory gives the same
+encoder (Stage II rebuilt from it, the appearance cache's key, retrieval's CLS features)."""
 
 # Parts of the pre-training / classification wrappers that are not the encoder.
 _IGNORED = re.compile(r"^(decoder\.|encoder_to_decoder\.|mask_token$|position_embeddings$|fc_norm\.|classifier\.|"
@@ -172,3 +192,96 @@ def encoder_config_from_videomae(path_or_hf_config: Any) -> dict[str, Any]:
         "layer_norm_eps": float(cfg.get("layer_norm_eps", 1e-12)),
         "qkv_bias": bool(qkv_bias),
     }
+
+
+def is_videomae_dir(directory: str | os.PathLike[str]) -> bool:
+    """Whether ``directory``'s config.json is a Hugging Face VideoMAE one (``"model_type": "videomae"``).
+
+    Unreadable JSON answers False: the loader then reports the file itself.
+    """
+    path = Path(directory) / "config.json"
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(data, dict) and data.get("model_type") == "videomae"
+
+
+def videomae_encoder_config(directory: str | os.PathLike[str]) -> TactileEncoderConfig:
+    """The appearance ViT's config for a VideoMAE directory (its shape; nothing is loaded)."""
+    path = Path(directory) / "config.json"
+    fields = encoder_config_from_videomae(path)
+    # tokens_per_video/fusion_heads are no part of the ViT: set so only the checkpoint's own shape is checked here
+    # (build_model takes the shape fields alone, onto the model's own encoder config).
+    try:
+        return TactileEncoderConfig(**{**fields, "tokens_per_video": 1, "fusion_heads": 1})
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+
+
+def videomae_appearance(directory: str | os.PathLike[str], config: TactileEncoderConfig | None = None,
+                        ) -> AppearanceEncoder:
+    """The appearance ViT of a Hugging Face VideoMAE directory, shaped by its config.json and filled by
+    :func:`load_videomae`; the CLS token VideoMAE lacks starts from :data:`CLS_SEED`.
+
+    ``config`` overrides the shape read from config.json (e.g. another ``num_frames``: the weights do not depend
+    on it); the weights must still fit it, and the checkpoint must still be an RGB, exact-GELU VideoMAE.
+    """
+    directory = Path(directory)
+    if config is None:
+        config = videomae_encoder_config(directory)
+    else:
+        path = directory / "config.json"
+        encoder_config_from_videomae(path)  # still a VideoMAE of RGB frames with exact GELU
+        if config.backbone != "vit":
+            raise ValueError(f"{path}: a VideoMAE checkpoint fills the ViT, not backbone {config.backbone!r}")
+    encoder = AppearanceEncoder(config)
+    fresh = load_videomae(encoder, directory)
+    if "cls_token" in fresh:
+        generator = torch.Generator().manual_seed(CLS_SEED)
+        with torch.no_grad():
+            encoder.cls_token.copy_(0.02 * torch.randn(encoder.cls_token.shape, generator=generator))
+    return encoder
+
+
+def videomae_video_settings(directory: str | os.PathLike[str]) -> dict[str, Any]:
+    """How a VideoMAE directory's frames are prepared, as :class:`VideoProcessingConfig` fields: the sensor image as it
+    is (``background: keep``: VideoMAE saw whole RGB frames, never an imprint minus the gel at rest), normalised
+    with its image processor's ``image_mean``/``image_std``.
+
+    Read from ``preprocessor_config.json`` (or ``video_preprocessor_config.json``); keys the file omits take
+    transformers' class defaults, ``do_normalize: false`` means mean 0 and std 1. The processor rescales by 1/255,
+    which our frames in [0, 1] already are: any other ``rescale_factor``, or ``do_rescale: false``, is an error
+    rather than a silently different input scale. Without either file: ImageNet's mean and std, which VideoMAE
+    was pre-trained with. Resizing stays ours (the encoder config fixes the size).
+    """
+    directory = Path(directory)
+    path = next((directory / n for n in PREPROCESSOR_NAMES if (directory / n).is_file()), None)
+    if path is None:
+        return {"background": "keep", "mean": list(IMAGENET_MEAN), "std": list(IMAGENET_STD)}
+    data = read_json_object(path, "a VideoMAE image processor config")
+    if data.get("do_rescale", True) is not True:
+        raise ValueError(f"{path}: do_rescale is {data['do_rescale']!r}; the frames are prepared as pixels/255, so "
+                         f"only a processor that rescales by 1/255 fits (set do_rescale: true)")
+    factor = data.get("rescale_factor", 1 / 255)
+    if isinstance(factor, bool) or not isinstance(factor, int | float) or not math.isclose(factor * 255, 1.0,
+                                                                                          rel_tol=1e-6):
+        raise ValueError(f"{path}: rescale_factor is {factor!r}; the frames are prepared as pixels/255 (0.00392…), "
+                         f"so another scale cannot be reproduced")
+    if data.get("do_normalize", True) is False:
+        return {"background": "keep", "mean": 0.0, "std": 1.0}
+    mean = _channels(data.get("image_mean", _HF_PROCESSOR_DEFAULT), "image_mean", path)
+    std = _channels(data.get("image_std", _HF_PROCESSOR_DEFAULT), "image_std", path)
+    if min(std) <= 0:
+        raise ValueError(f"{path}: image_std must be > 0, got {std}")
+    return {"background": "keep", "mean": mean, "std": std}
+
+
+def _channels(value: Any, name: str, path: Path) -> list[float]:
+    """Three per-channel numbers (one number stands for all three, as in transformers)."""
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return [float(value)] * 3
+    if (isinstance(value, list | tuple) and len(value) == 3
+            and all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)):
+        return [float(v) for v in value]
+    raise ValueError(f"{path}: {name} must be one number or three (R, G, B), got {value!r}")

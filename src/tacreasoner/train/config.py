@@ -44,7 +44,8 @@ class ModelSettings:
     llm: str = "runs/llm"
     """Causal LM directory or hub id: ``pretrain-llm`` output, or e.g. Qwen/Qwen2.5-7B-Instruct."""
     appearance: str | None = None
-    """``pretrain-encoder`` output directory (or null: a randomly initialised appearance ViT)."""
+    """``pretrain-encoder`` / ``encoder get`` output directory, or a Hugging Face VideoMAE directory as it is (or null:
+    a randomly initialised appearance ViT)."""
     encoder: dict[str, Any] = field(default_factory=dict)
     """``TactileEncoderConfig`` fields: ablation switches (use_temporal, question_conditioning, tokens_per_video)."""
     dtype: str = "float32"
