@@ -4,9 +4,11 @@
 
 Reads a ``TrainConfig.to_dict()`` JSON, runs ``train_stage(config, STAGE)`` (default 2) and writes this process's final
 trainable parameters to ``OUT_DIR/rank{RANK}.safetensors`` (and its last torch seed to ``rank{RANK}.json``);
-``POISON=RANK:STEP`` makes that process's loss NaN at that step. The trainer saves on the main process
-only, so the weights are caught with :func:`capture_trainable_weights` (also used by the test for its
-1-process reference run, so both sides are captured the same way).
+``POISON=RANK:STEP`` makes that process's loss NaN at that step; ``STOP_AFTER=N`` ends the run after N steps without
+the final save (a killed run), ``RESUME=1`` resumes it; ``ENGINE=fsdp`` trains under FSDP2 (see
+:func:`fsdp_on_the_cpu`), ``ENGINE=deepspeed`` under DeepSpeed ZeRO-2 (see :func:`deepspeed_on_the_cpu`). The
+trainer saves on the main process only, so the weights are caught with :func:`capture_trainable_weights` (also used
+by the test for its 1-process reference run, so both sides are captured the same way).
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import json
 import os
 import sys
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 from typing import Any
 
@@ -62,6 +64,48 @@ def capture_trainable_weights() -> Iterator[dict[str, torch.Tensor]]:
         weights.update(_snapshot(modules[0]))
 
 
+@contextmanager
+def fsdp_on_the_cpu() -> Iterator[None]:
+    """Make the trainer's Accelerator shard with FSDP2 over gloo.
+
+    Accelerate 1.15 sets up FSDP only on accelerators (a CPU launch becomes MULTI_CPU DDP), although FSDP2 itself
+    shards, all-gathers and reduce-scatters over gloo; so the engine is switched after the Accelerator is made,
+    as ``accelerate launch --use_fsdp`` would have set it on GPUs: one FSDP unit per decoder layer."""
+    from accelerate import PartialState
+    from accelerate.utils import DistributedType, FullyShardedDataParallelPlugin
+
+    from tacreasoner.train import trainer
+
+    make = trainer.make_accelerator
+
+    def make_fsdp(*args: Any, **kwargs: Any) -> Any:
+        accelerator = make(*args, **kwargs)
+        plugin = FullyShardedDataParallelPlugin(fsdp_version=2, auto_wrap_policy="transformer_based_wrap",
+                                                transformer_cls_names_to_wrap=["Qwen2DecoderLayer"])
+        accelerator.state.distributed_type = DistributedType.FSDP
+        accelerator.state.fsdp_plugin = plugin
+        PartialState._shared_state["distributed_type"] = DistributedType.FSDP  # as AcceleratorState does on GPUs
+        return accelerator
+
+    trainer.make_accelerator = make_fsdp
+    try:
+        yield
+    finally:
+        trainer.make_accelerator = make
+
+
+def deepspeed_on_the_cpu() -> None:
+    """DeepSpeed ZeRO-2 as ``accelerate launch --use_deepspeed --zero_stage 2`` sets it up, on DeepSpeed's CPU
+    accelerator over gloo (the trainer asks for gloo itself when there is no GPU). DeepSpeed would first compile a
+    shared-memory all-reduce (~100 s on 2 cores) that gloo does not need: skipped."""
+    import importlib
+
+    os.environ.update({"ACCELERATE_USE_DEEPSPEED": "true", "ACCELERATE_DEEPSPEED_ZERO_STAGE": "2",
+                       "DS_ACCELERATOR": "cpu"})
+    importlib.import_module("deepspeed.comm.torch")
+    sys.modules["deepspeed.comm.torch"].build_shm_op = lambda: None  # `deepspeed.comm` re-exports torch as .torch
+
+
 def main(config_json: str, out_dir: str, stage: str = "2") -> None:
     from safetensors.torch import save_file
 
@@ -77,14 +121,26 @@ def main(config_json: str, out_dir: str, stage: str = "2") -> None:
         def hook(step: int, _micro: int, loss: torch.Tensor) -> torch.Tensor:
             return loss * float("nan") if (rank, step + 1) == (bad_rank, bad_step) else loss
 
-    with capture_trainable_weights() as weights:
-        result = train_stage(config, int(stage), loss_hook=hook)
+    from tacreasoner.train import heads
+
+    fits, fit = [], heads.fit_heads  # which processes fit the read-out heads (the main one only)
+    heads.fit_heads = lambda *args, **kwargs: fits.append(1) or fit(*args, **kwargs)
+    stop_after = int(os.environ["STOP_AFTER"]) if os.environ.get("STOP_AFTER") else None
+    if os.environ.get("ENGINE") == "deepspeed":
+        deepspeed_on_the_cpu()
+    engine = fsdp_on_the_cpu() if os.environ.get("ENGINE") == "fsdp" else nullcontext()
+    with engine, capture_trainable_weights() as weights:
+        result = train_stage(config, int(stage), loss_hook=hook, stop_after=stop_after,
+                             resume=os.environ.get("RESUME") == "1")
+    if stop_after is not None:  # stopped before the final gather: under FSDP each process holds only shards
+        weights = {}
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     save_file(weights, str(out / f"rank{rank}.safetensors"))
     (out / f"rank{rank}.json").write_text(json.dumps({"final_loss": result.final_loss, "steps": result.steps,
                                                       "world_size": int(os.environ.get("WORLD_SIZE", "1")),
-                                                      "torch_seed": torch.initial_seed()}))
+                                                      "torch_seed": torch.initial_seed(),
+                                                      "fit_heads_calls": len(fits)}))
 
 
 if __name__ == "__main__":

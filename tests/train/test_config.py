@@ -399,6 +399,8 @@ def test_the_global_batch_gives_each_process_its_micro_batch() -> None:
         settings.micro_batch("stage2", 3)
     with pytest.raises(ValueError, match="does not split into 32 process"):
         settings.micro_batch("stage2", 32)  # 32 × 2 accumulation steps need 64 examples
+    assert {settings.examples_per_step("stage2", n) for n in (1, 2, 4, 8, 16)} == {32}
+    assert StageSettings(batch_size=4, grad_accum=3).examples_per_step("stage1", 1) == 12
 
 
 def test_several_processes_without_a_stated_global_batch_are_refused_with_the_numbers() -> None:

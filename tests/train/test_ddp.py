@@ -38,8 +38,8 @@ def _config(inputs: dict[str, Path], out: Path, batch_size: int = 4, global_batc
 
 
 def _launch_two_processes(config_json: Path, weights_dir: Path, port: int, stage: int = 2, *, poison: str = "",
-                          ) -> subprocess.CompletedProcess:
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "TOKENIZERS_PARALLELISM": "false", "POISON": poison}
+                          **env_more: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "TOKENIZERS_PARALLELISM": "false", "POISON": poison, **env_more}
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "--master_addr", "127.0.0.1",
            "--master_port", str(port), str(WORKER), str(config_json), str(weights_dir), str(stage)]
     try:
@@ -122,6 +122,8 @@ def test_the_defaults_prompt_dependent_parts_train_under_ddp_in_both_stages(inpu
         for name in rank0:
             assert torch.equal(rank0[name], rank1[name]), f"Stage {stage}: {name} differs between the ranks"
     assert json.loads((tmp_path / "run" / "stage2" / "run.json").read_text())["clip_reader"]
+    # the heads were fitted once, on the main process, and sent to the other (whose weights equal it above)
+    assert [i["fit_heads_calls"] for i in infos] == [1, 0]
     assert any("clip_reader" in n for n in rank0)  # Stage II trains the reader's level vectors
 
 
@@ -139,3 +141,91 @@ def test_a_non_finite_loss_on_one_process_stops_every_process_promptly(inputs, t
     assert "not finite at step 2 (micro-batch 1 of 1) on process(es) [1]; here nan" in done.stderr
     assert "on process(es) [1]; this process stops too" in done.stderr, done.stderr[-3000:]
     assert not (tmp_path / "weights").exists()
+
+
+def _untied_llm(inputs: dict[str, Path], directory: Path) -> Path:
+    """The tiny LLM with its output layer untied (a copy of the input embeddings), as Qwen2.5-7B/14B are: the
+    Stage II model FSDP2 can shard (a tied one is refused, see tests/model/test_stages.py). Three of its token ids
+    are marked untrained (as ``pretrain-llm`` marks them), so both stages also train new token rows."""
+    from transformers import AutoTokenizer, Qwen2ForCausalLM
+
+    if not (directory / "config.json").is_file():
+        llm = Qwen2ForCausalLM.from_pretrained(inputs["llm"])
+        llm.config.tie_word_embeddings = False
+        untied = Qwen2ForCausalLM(llm.config)
+        state = llm.state_dict()
+        state["lm_head.weight"] = llm.get_input_embeddings().weight.detach().clone()
+        untied.load_state_dict(state)
+        untied.save_pretrained(directory)
+        AutoTokenizer.from_pretrained(inputs["llm"]).save_pretrained(directory)
+        (directory / "untrained_tokens.json").write_text(json.dumps({"ids": [5, 6, 7]}))
+    return directory
+
+
+def _final_trainable(run: Path, stage: int) -> dict[str, torch.Tensor]:
+    """The trainable weights the trainer checkpointed at the last step (gathered whole by every engine)."""
+    return load_file(str(sorted((run / f"stage{stage}" / "checkpoints").glob("step-*"))[-1] / "model.safetensors"))
+
+
+def _logits(model_dir: Path, inputs: dict[str, Path]) -> torch.Tensor:
+    """The saved model's logits on the first training prompts (with their videos), as reloaded from disk."""
+    from tacreasoner.model.build import load_model
+    from tacreasoner.train.data import VideoBank, collate, load_examples, tokenize_examples
+
+    model, processor = load_model(model_dir)
+    examples = load_examples(2, inputs["bench"], stage2_data="plain")[:3]
+    tokenized, _ = tokenize_examples(processor, examples, 1024)
+    bank = VideoBank(processor.video_config, processor.sensor_types)
+    bank.build([k for e in tokenized for k in e.videos])
+    batch = collate(processor, tokenized, bank, None)
+    batch.pop("labels", None)
+    with torch.no_grad():
+        return model.eval()(**batch).logits
+
+
+@pytest.mark.parametrize(("engine", "stage"), [("ddp", 2), ("fsdp", 2), ("fsdp", 1), ("deepspeed", 2)])
+def test_a_killed_two_process_run_resumes_to_the_one_process_result_and_saves_a_model_that_answers_alike(
+        engine: str, stage: int, inputs, tmp_path, free_port) -> None:
+    """2 processes stop after 2 of 4 steps (no final save), resume from the checkpoint under the same engine and
+    end where 1 uninterrupted process with the same global batch ends: the checkpointed trainable weights (FSDP
+    gathers its shards into them), the loss log, and the saved model's logits once reloaded."""
+    steps = 4
+    llm = _untied_llm(inputs, tmp_path / "untied_llm") if engine == "fsdp" else inputs["llm"]
+    other = 2 if stage == 1 else 1
+    runs = {}
+    for name, batch in (("two", {"global_batch": 4}), ("one", {"batch_size": 4})):
+        settings = {"steps": steps, "lr": 3e-3, "projector_lr": 3e-3, **batch}
+        runs[name] = tiny_config(inputs, tmp_path / name, model={"llm": str(llm)}, **{f"stage{stage}": settings},
+                                 **{f"stage{other}": {"skip": True}}, lora={"r": 8, "alpha": 16, "dropout": 0.0},
+                                 runtime={"threads": 1, "log_with": "none", "progress": False, "log_every": 1,
+                                          "checkpoint_every": 1, "mixed_precision": "no"})
+    (tmp_path / "two").mkdir()
+    config_json = tmp_path / "two" / "config.json"
+    config_json.write_text(json.dumps(runs["two"].to_dict()))
+    _launch_two_processes(config_json, tmp_path / "w_killed", free_port(), stage, ENGINE=engine, STOP_AFTER="2")
+    ckpts = sorted(p.name for p in (tmp_path / "two" / f"stage{stage}" / "checkpoints").glob("step-*"))
+    assert ckpts == ["step-00000001", "step-00000002"] and not (tmp_path / "two" / f"stage{stage}" / "model").exists()
+    _launch_two_processes(config_json, tmp_path / "w_resumed", free_port(), stage, ENGINE=engine, RESUME="1")
+    info = json.loads((tmp_path / "two" / f"stage{stage}" / "run.json").read_text())
+    assert info["processes"] == 2 and info["resumed_from_step"] == 2 and info["steps_done"] == steps
+    assert info["engine"] == {"ddp": "multi_cpu", "fsdp": "fsdp2", "deepspeed": "deepspeed-zero2"}[engine]
+    if engine == "deepspeed":  # its partitioned optimizer state, written by both processes through Accelerate
+        assert list((tmp_path / "two" / f"stage{stage}" / "checkpoints" / "step-00000004" / "engine").iterdir())
+
+    with capture_trainable_weights() as in_memory:
+        train_stage(runs["one"], stage)
+    two, one = _final_trainable(tmp_path / "two", stage), _final_trainable(tmp_path / "one", stage)
+    assert two.keys() == one.keys() and set(in_memory) <= set(one)  # a tied row table appears under both names
+    if engine == "fsdp":  # its LLM has untrained rows (the tied tiny LLM's tokenizer adds none)
+        assert any(".rows" in n or "trainable_tokens" in n for n in two), "the new token rows were not checkpointed"
+    for name in in_memory:
+        torch.testing.assert_close(one[name], in_memory[name], rtol=0, atol=0, msg=name)
+    for name in one:
+        torch.testing.assert_close(two[name], one[name], rtol=1e-4, atol=1e-5, msg=name)
+    log = [json.loads(line)["loss"] for line in
+           (tmp_path / "two" / f"stage{stage}" / "train_log.jsonl").read_text().splitlines()]
+    single = [json.loads(line)["loss"] for line in
+              (tmp_path / "one" / f"stage{stage}" / "train_log.jsonl").read_text().splitlines()]
+    assert len(log) == steps and log == pytest.approx(single, abs=1e-4)
+    torch.testing.assert_close(_logits(tmp_path / "two" / f"stage{stage}" / "model", inputs),
+                               _logits(tmp_path / "one" / f"stage{stage}" / "model", inputs), rtol=1e-4, atol=1e-4)

@@ -56,12 +56,13 @@ def test_qwen25_7b_shapes_count_the_published_size(qwen7b: ModelShapes) -> None:
     assert qwen7b.frozen_bytes == pytest.approx(2 * (qwen7b.parameters - qwen7b.trainable), rel=1e-3)
 
 
-def test_stage_one_trains_the_embedding_matrices_through_their_mask() -> None:
+def test_stage_one_trains_the_new_token_rows_not_the_embedding_matrices() -> None:
     from transformers import Qwen2Config
 
     shapes = count_model(Qwen2Config(**TINY), stage=1, dtype="float32")
     parts = dict(shapes.trainable_parts)
-    assert parts["embedding matrices (new rows by gradient mask)"] == 2 * 512 * 64  # untied: input and output
+    assert parts["new token rows"] == 2 * 5 * 64  # untied: input and output rows of the 5 added tokens
+    assert "embeddings" not in parts
     assert "projector" in parts and "tactile encoder" in parts
     assert not any(part.startswith("LoRA") for part in parts)
     assert shapes.optimizer_bytes == 8 * shapes.trainable  # fp32 weights: two moments, no master copy
@@ -181,8 +182,9 @@ def test_what_the_trainer_refuses_is_noted(tmp_path: Path) -> None:
     assert stage2.shapes.tied_embeddings
     assert any("refuses FSDP in Stage II of a tied-embedding LLM" in note for note in stage2.notes)
     (stage1,) = plan_for_config(config, stage=1, engine="fsdp", world_sizes=[1])
-    assert any("refuses FSDP in Stage I" in note for note in stage1.notes)
-    assert any("gradient mask on the whole input and output embedding" in note for note in stage1.notes)
+    assert not any("refuses" in note for note in stage1.notes)  # Stage I's rows are plain parameters
+    (zero3,) = plan_for_config(config, stage=2, engine="deepspeed-zero3", world_sizes=[2])
+    assert any("refuses DeepSpeed ZeRO-3" in note for note in zero3.notes)
 
 
 def test_an_unknown_llm_asks_for_llm() -> None:

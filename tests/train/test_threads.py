@@ -53,3 +53,13 @@ def test_without_proc_stat_the_load_average_is_used(monkeypatch: pytest.MonkeyPa
     monkeypatch.setattr(threads, "_STAT", "/nonexistent/stat")
     monkeypatch.setattr(threads.os, "getloadavg", lambda: (1.25, 0.0, 0.0))
     assert threads.busy_cores_elsewhere() == 1.25
+
+
+def test_training_threads_follow_the_config_then_share_the_cores_between_local_processes(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(threads, "available_cores", lambda: 16)
+    monkeypatch.setattr(threads, "busy_cores_elsewhere", lambda: 13.0)  # a load that varies from start to start
+    assert threads.training_threads(3, local_processes=8) == 3
+    assert threads.training_threads(None, local_processes=8) == 2  # the same in every process, whatever the load
+    assert threads.training_threads(None, local_processes=32) == 1
+    assert threads.training_threads(None) == 3  # alone: the cores others leave free

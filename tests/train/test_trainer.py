@@ -209,7 +209,7 @@ def test_sigkilled_cli_run_resumes_to_the_uninterrupted_result(inputs, tmp_path)
         torch.testing.assert_close(a[name], b[name], rtol=0, atol=1e-6, msg=name)
 
 
-def test_deepspeed_gets_the_micro_batch_and_refuses_accumulation() -> None:
+def test_deepspeed_gets_the_micro_batch_and_refuses_accumulation_and_zero3() -> None:
     from types import SimpleNamespace
 
     from tacreasoner.train.config import StageSettings
@@ -219,10 +219,14 @@ def test_deepspeed_gets_the_micro_batch_and_refuses_accumulation() -> None:
     accelerator = SimpleNamespace(state=SimpleNamespace(deepspeed_plugin=plugin))
     settings = StageSettings(global_batch=12)
     _configure_deepspeed(accelerator, settings, settings.micro_batch("stage2", 2))  # 12 examples over 2 GPUs
-    assert plugin.deepspeed_config == {"train_micro_batch_size_per_gpu": 6, "gradient_accumulation_steps": 1}
+    assert plugin.deepspeed_config == {"train_micro_batch_size_per_gpu": 6, "gradient_accumulation_steps": 1,
+                                       "gradient_clipping": settings.max_grad_norm}
     with pytest.raises(ValueError, match="grad_accum: 1"):
         _configure_deepspeed(accelerator, StageSettings(batch_size=6, grad_accum=2), 6)
     _configure_deepspeed(SimpleNamespace(state=SimpleNamespace()), StageSettings(grad_accum=4), 8)  # no DeepSpeed
+    zero3 = SimpleNamespace(state=SimpleNamespace(deepspeed_plugin=SimpleNamespace(zero_stage=3, deepspeed_config={})))
+    with pytest.raises(ValueError, match="ZeRO-3 is not supported"):
+        _configure_deepspeed(zero3, settings, 6)
 
 
 def test_evaluate_and_ask_commands_on_a_trained_model(two_stage_run: Path, inputs, tmp_path) -> None:

@@ -1,7 +1,8 @@
 """Which parameters each training stage updates, in one place so the trainer and the tests agree.
 
     Stage I  (alignment): temporal branch, fusion, sensor embedding, projector, and the embedding rows of
-                          tokens added to the LLM's vocabulary. LLM and appearance ViT frozen.
+                          tokens added to the LLM's vocabulary (as small row tables, merged back on save).
+                          LLM and appearance ViT frozen.
     Stage II (SFT):       projector + LoRA on the LLM's attention projections (+ the rows of the added tokens,
                           as PEFT trainable tokens). Whole tactile encoder frozen.
 
@@ -18,11 +19,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import torch
 from torch import nn
 
 from tacreasoner.fields import reject_unknown_fields
 from tacreasoner.model.modeling import TacReasonerForCausalLM
+from tacreasoner.model.token_rows import TokenRows, merge_token_rows, train_token_rows
 
 __all__ = ["STAGES", "LoraSettings", "configure_stage", "load_adapter", "merge_adapter", "no_decay_parameter_names",
            "trainable_parameter_names"]
@@ -80,37 +81,20 @@ def _train(module: nn.Module | None) -> None:
 
 
 def _train_new_rows(model: TacReasonerForCausalLM) -> None:
-    """Let only the added tokens' rows of the (input and output) embeddings learn, via a gradient mask.
-
-    The trainer must not apply weight decay to these matrices (decay would move the frozen rows);
-    :func:`no_decay_parameter_names` lists them.
-    """
+    """Let only the added tokens' rows of the (input and output) embeddings learn, as their own small parameters
+    (:mod:`tacreasoner.model.token_rows`): the optimizer, gradients and all-reduce hold rows, not matrices.
+    The trainer does not weight-decay them (:func:`no_decay_parameter_names`), as before with the whole matrix."""
     ids = list(model.config.new_token_ids or [])
-    if not ids:
-        return
-    seen: set[int] = set()
-    for module in (model.get_input_embeddings(), model.get_output_embeddings()):
-        weight = getattr(module, "weight", None)
-        if weight is None or id(weight) in seen:
-            continue
-        seen.add(id(weight))
-        model._row_masked.add(id(weight))
-        mask = torch.zeros(weight.shape[0], 1, dtype=weight.dtype, device=weight.device)
-        mask[ids] = 1
-        weight.requires_grad_(True)
-        # the mask follows the gradient: accelerate moves the model to the GPU after this runs
-        model._new_row_hooks.append(weight.register_hook(
-            lambda grad, mask=mask: grad * mask.to(device=grad.device, dtype=grad.dtype)))
+    if ids:
+        train_token_rows(model.language_model, ids)
 
 
 def configure_stage(model: TacReasonerForCausalLM, stage: int, lora: LoraSettings | None = None) -> nn.Module:
     """Set ``requires_grad`` for ``stage`` and return the module to train (a PEFT model for Stage II)."""
     if stage not in STAGES:
         raise ValueError(f"stage must be one of {STAGES}, got {stage!r}")
+    merge_token_rows(model.language_model)  # a model configured before (Stage I in memory) is plain again
     _freeze(model)
-    for handle in getattr(model, "_new_row_hooks", []):
-        handle.remove()
-    model._new_row_hooks, model._row_masked = [], set()
     encoder = model.tactile_encoder
     if stage == 1:
         for part in (encoder.temporal, encoder.fusion, encoder.sensor_embed, model.projector):
@@ -131,10 +115,8 @@ def configure_stage(model: TacReasonerForCausalLM, stage: int, lora: LoraSetting
 
 
 def no_decay_parameter_names(model: nn.Module) -> set[str]:
-    """Trainable parameters that must not be weight-decayed: biases, norms, and row-masked embeddings."""
-    masked: set[int] = set()
-    for module in model.modules():
-        masked |= getattr(module, "_row_masked", set())
+    """Trainable parameters that must not be weight-decayed: biases, norms, and the new token rows."""
+    masked = {id(module.rows) for module in model.modules() if isinstance(module, TokenRows)}
     names = set()
     for name, p in model.named_parameters():
         if p.requires_grad and (p.ndim < 2 or id(p) in masked or "norm" in name.lower()):

@@ -107,7 +107,8 @@ class DataSettings:
     max_items: int | None = None
     """Use only the first N training examples (trial runs)."""
     video_cache: str | None = None
-    """Directory keeping preprocessed videos between runs (stages, seeds, ablations, evaluation); null = none."""
+    """Directory keeping preprocessed videos between runs (stages, seeds, ablations, evaluation); null = none. With
+    several processes the main one fills it first and the others read it: set it for multi-GPU runs."""
     head_folds: int = 5
     """Stage II writes into each training prompt the verdict of a read-out head (``encoder.clip_reader``,
     ``encoder.cross_video``) fitted without that prompt's objects: the objects are split into this many folds
@@ -207,6 +208,10 @@ class StageSettings:
                              f"{processes * self.grad_accum}")
         return per
 
+    def examples_per_step(self, name: str, processes: int) -> int:
+        """Examples per optimizer step over all ``processes`` (``global_batch`` where stated)."""
+        return self.micro_batch(name, processes) * self.grad_accum * processes
+
 
 @dataclass
 class RuntimeSettings:
@@ -217,7 +222,8 @@ class RuntimeSettings:
     checkpoint_every: int = 100
     keep_checkpoints: int = 2
     threads: int | None = None
-    """CPU threads (default: cores not busy with other work)."""
+    """CPU threads per process (default: alone, the cores not busy with other work; with several processes on one
+    machine, an equal share of its cores)."""
     progress: bool = True
 
     def check(self) -> None:

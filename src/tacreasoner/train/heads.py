@@ -22,7 +22,7 @@ from tacreasoner.model.heads import ComparatorHead, HeadRows, NameMatcherHead, R
 from tacreasoner.train.data import Tokenized, VideoBank, VideoKey, collate, train_items, video_key
 from tacreasoner.train.reader import clip_labels
 
-__all__ = ["encoder_outputs", "fit_heads", "model_heads", "video_objects"]
+__all__ = ["encoder_outputs", "fit_heads", "fit_heads_once", "model_heads", "video_objects"]
 
 
 def model_heads(model: Any) -> list[ReadoutHead]:
@@ -102,13 +102,43 @@ def fit_heads(model: Any, processor: Any, examples: Sequence[Tokenized], bank: V
             read = head.read_rows(rows)
         for i, r in enumerate(read):
             readings[i][head.reading] = r
-    if fusion is not None:
-        if stats.get("name_matcher", {}).get("named"):
-            model.projector.loud_option_marks(model.get_input_embeddings().weight, seed + 2)
-        for p in fusion.comparator_parameters:
-            p.requires_grad_(False)
+    if fusion is not None and stats.get("name_matcher", {}).get("named"):
+        model.projector.loud_option_marks(model.get_input_embeddings().weight, seed + 2)
+    _freeze_fitted(model)
     out = [dataclasses.replace(e, readings=r) for e, r in zip(examples, readings, strict=True)]
     return out, stats
+
+
+def fit_heads_once(accelerator: Any, model: Any, processor: Any, examples: Sequence[Tokenized], bank: VideoBank,
+                   bench: str | Path, seed: int, folds: int = 5, progress: Callable[[int, int], None] | None = None,
+                   ) -> tuple[list[Tokenized], dict[str, Any]]:
+    """:func:`fit_heads` on the main process only; the other processes receive the fitted projector (heads, option
+    marks), the examples' readings and the statistics instead of running the frozen encoder over every training
+    prompt and fitting the same heads again."""
+    if accelerator.num_processes == 1:
+        return fit_heads(model, processor, examples, bank, bench, seed, folds, progress)
+    from accelerate.utils import broadcast_object_list
+
+    payload: list[Any] = [None]
+    if accelerator.is_main_process:
+        out, stats = fit_heads(model, processor, examples, bank, bench, seed, folds, progress)
+        state = {k: v.detach().cpu() for k, v in model.projector.state_dict().items()}
+        payload = [([e.readings for e in out], stats, state)]
+    broadcast_object_list(payload, from_process=0)
+    readings, stats, state = payload[0]
+    if accelerator.is_main_process:
+        return out, stats
+    model.projector.load_state_dict(state)
+    _freeze_fitted(model)
+    return [dataclasses.replace(e, readings=r) for e, r in zip(examples, readings, strict=True)], stats
+
+
+def _freeze_fitted(model: Any) -> None:
+    """The comparator's fitted parts stay as fitted through Stage II."""
+    fusion = model.projector.cross_video
+    if fusion is not None:
+        for p in fusion.comparator_parameters:
+            p.requires_grad_(False)
 
 
 def _agreement(head: ReadoutHead, read: list[torch.Tensor], targets: list[Any]) -> float | None:

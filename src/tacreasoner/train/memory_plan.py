@@ -8,11 +8,10 @@ directory's ``config.json``. Everything else is arithmetic on those counts (:fun
 Per GPU, in bytes (GB = 10⁹ bytes):
 
 * **frozen weights**: every frozen parameter in its own dtype (``model.dtype``; the tactile encoder included).
-* **trainable parameters**: in their own dtype (PEFT keeps LoRA in fp32, the projector copy in the model's dtype).
-* **gradients**: one per trainable parameter, in the parameter's dtype.
-* **AdamW state**: two fp32 moments (8 bytes) per trainable parameter, plus an fp32 master copy (4 bytes) of each
-  trainable parameter held in 16 bits, as DeepSpeed keeps them; plain torch AdamW on bf16 parameters keeps bf16
-  moments and no master copy, so this is an upper bound under DDP and FSDP.
+* **trainable parameters**: fp32 master weights, whatever ``model.dtype`` (the trainer's
+  ``master_weights_in_fp32``; compute runs under bf16 autocast).
+* **gradients**: one per trainable parameter, in fp32.
+* **AdamW state**: two fp32 moments (8 bytes) per trainable parameter.
 * **gathered weights** (FSDP, ZeRO-3 on more than one GPU): the full weights of the block being run and of the
   one prefetched: 2 × the largest of one decoder layer and the embedding or output matrix.
 * **activations**, for ``b`` = batch size per GPU, ``s`` = ``data.max_length`` (every example as long as allowed),
@@ -43,7 +42,6 @@ is marked tight.
 
 from __future__ import annotations
 
-import json
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -201,6 +199,7 @@ def count_model(text_config: Any, *, stage: int = 2, lora: LoraSettings | None =
     from tacreasoner.model.configuration import TacReasonerConfig
     from tacreasoner.model.modeling import TacReasonerForCausalLM
     from tacreasoner.model.stages import LoraSettings, configure_stage
+    from tacreasoner.train.trainer import master_weights_in_fp32
 
     if stage not in STAGES:
         raise ValueError(f"stage must be one of {', '.join(map(str, STAGES))}, got {stage!r}")
@@ -221,6 +220,7 @@ def count_model(text_config: Any, *, stage: int = 2, lora: LoraSettings | None =
     block_bytes = [w.numel() * w.element_size() for w in (getattr(embeddings, "weight", None),
                                                            getattr(output, "weight", None)) if w is not None]
     trained = configure_stage(model, stage, lora)
+    master_weights_in_fp32(trained, "bf16")  # as the trainer does: trainable parameters are fp32 master weights
 
     frozen = trainable = gradient = optimizer = count = 0
     parts: dict[str, int] = {}
@@ -271,10 +271,10 @@ def _part(name: str, stage: int, lora: LoraSettings) -> str:
     """Which part of the model a trainable parameter belongs to, in words."""
     if "lora_" in name:
         return f"LoRA r {lora.r} on {'/'.join(lora.target_modules)}"
-    if "trainable_tokens" in name:
+    if "trainable_tokens" in name or name.endswith(".rows"):
         return "new token rows"
     if "embed_tokens" in name or "lm_head" in name or "wte" in name:
-        return "embedding matrices (new rows by gradient mask)" if stage == 1 else "embeddings"
+        return "embeddings"
     if "projector" in name:
         return "projector"
     if "tactile_encoder" in name:
@@ -350,10 +350,11 @@ def plan_for_config(config: Any, *, stage: int = 2, engine: str = "ddp", world_s
     encoder = TactileEncoderConfig.from_dict(with_head_settings(config.model.encoder))
     appearance = Path(config.model.appearance) if config.model.appearance else None
     if appearance is not None and (appearance / "config.json").is_file():
+        from tacreasoner.model.appearance import read_appearance_config
         from tacreasoner.model.modeling import _with_appearance_of
 
-        saved = json.loads((appearance / "config.json").read_text(encoding="utf-8"))
-        encoder = _with_appearance_of(encoder, TactileEncoderConfig.from_dict(saved))
+        # read_appearance_config: a VideoMAE directory's config.json is no TactileEncoderConfig
+        encoder = _with_appearance_of(encoder, read_appearance_config(appearance))
     elif appearance is not None:
         notes.append(f"appearance encoder: {appearance} not found, so its shape is the config's encoder settings "
                      f"(frozen and small beside the LLM either way)")
@@ -388,17 +389,11 @@ def _trainer_notes(config: Any, shapes: ModelShapes, stage: int, engine: str, se
     notes = []
     if settings.skip:
         notes.append(f"stage{stage}.skip is true in this config: the trainer would skip this stage")
-    if stage == 1:
-        rows = dict(shapes.trainable_parts).get("embedding matrices (new rows by gradient mask)", 0)
-        if rows:
-            notes.append(f"Stage I trains the new token rows through a gradient mask on the whole input and output "
-                         f"embedding matrices: their gradients and AdamW state are full-size ({_count(rows)} "
-                         f"parameters)")
-        if engine == "fsdp":
-            notes.append("the trainer refuses FSDP in Stage I (FSDP's sharded embeddings drop the row mask): use "
-                         "ddp or deepspeed")
     if stage == 2 and engine == "fsdp" and shapes.tied_embeddings:
         notes.append("the trainer refuses FSDP in Stage II of a tied-embedding LLM: use ddp or deepspeed-zero2")
+    if engine == "deepspeed-zero3":
+        notes.append("the trainer refuses DeepSpeed ZeRO-3 (its final save does not gather partitioned weights): "
+                     "use fsdp to shard the frozen LLM, or deepspeed-zero2")
     if engine.startswith("deepspeed") and settings.grad_accum != 1:
         notes.append(f"the trainer refuses grad_accum > 1 under DeepSpeed (this config: {settings.grad_accum}): "
                      f"--set stage{stage}.grad_accum=1")
@@ -431,7 +426,7 @@ def render_plans(plans: Sequence[MemoryPlan]) -> str:
         f"{_count(shapes.trainable)} trainable ({parts})",
         f"weights {shapes.weight_dtype}; examples of {first.max_length} tokens, gradient checkpointing "
         f"{'on' if first.gradient_checkpointing else 'off'}, {first.attention} attention, logits on "
-        f"{first.answer_fraction:.0%} of positions; AdamW: fp32 moments + fp32 master copy of 16-bit weights",
+        f"{first.answer_fraction:.0%} of positions; trainable parameters, gradients and AdamW moments in fp32",
         "",
     ]
     rows: list[tuple[str, list[str]]] = [

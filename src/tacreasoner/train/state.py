@@ -21,8 +21,8 @@ import numpy as np
 import torch
 from safetensors.torch import load_file, save_file
 
-__all__ = ["TrainingState", "cosine_with_warmup", "latest_checkpoint", "load_checkpoint",
-           "save_checkpoint", "seed_everything", "truncate_log", "write_json"]
+__all__ = ["TrainingState", "cosine_with_warmup", "latest_checkpoint", "load_checkpoint", "load_optimizer_state",
+           "save_checkpoint", "seed_everything", "staging_dir", "truncate_log", "write_json"]
 
 CHECKPOINT_PREFIX = "step-"
 
@@ -57,18 +57,30 @@ def _rng_state() -> dict[str, Any]:
     return {"torch": torch.get_rng_state(), "numpy": np.random.get_state(), "python": random.getstate()}
 
 
+def staging_dir(run_dir: str | os.PathLike[str], step: int) -> Path:
+    """Where checkpoint ``step`` is written before its rename: one name every process of a run can compute, so an
+    engine that writes from every process (DeepSpeed) can fill it first."""
+    return Path(run_dir) / f".tmp-{CHECKPOINT_PREFIX}{step:08d}"
+
+
 def save_checkpoint(run_dir: str | os.PathLike[str], step: int, weights: dict[str, torch.Tensor],
-                    optimizer: torch.optim.Optimizer, scheduler: Any | None = None, *,
-                    extra: dict[str, Any] | None = None, keep: int = 2) -> Path:
-    """Write ``run_dir/step-<step>`` atomically and keep only the newest ``keep`` checkpoints."""
+                    optimizer: torch.optim.Optimizer | dict[str, Any] | None, scheduler: Any | None = None, *,
+                    extra: dict[str, Any] | None = None, keep: int = 2, staged: bool = False) -> Path:
+    """Write ``run_dir/step-<step>`` atomically and keep only the newest ``keep`` checkpoints.
+
+    ``optimizer``: the optimizer or its (gathered) state dict; None where an engine saved its own. ``staged``: files
+    already written into :func:`staging_dir` by every process are kept (else it starts empty)."""
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     final = run_dir / f"{CHECKPOINT_PREFIX}{step:08d}"
-    tmp = run_dir / f".tmp-{final.name}-{os.getpid()}"
-    shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir()
+    tmp = staging_dir(run_dir, step)
+    if not staged:
+        shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(exist_ok=True)
     save_file({k: v.detach().contiguous().cpu() for k, v in weights.items()}, str(tmp / "model.safetensors"))
-    torch.save(optimizer.state_dict(), tmp / "optimizer.pt")
+    if optimizer is not None:
+        state = optimizer if isinstance(optimizer, dict) else optimizer.state_dict()
+        torch.save(state, tmp / "optimizer.pt")
     if scheduler is not None:
         torch.save(scheduler.state_dict(), tmp / "scheduler.pt")
     rng = _rng_state()
@@ -99,7 +111,7 @@ def load_checkpoint(path: str | os.PathLike[str], optimizer: torch.optim.Optimiz
     except Exception as exc:  # safetensors raises its own error type for a corrupt file
         raise ValueError(f"checkpoint {path}: cannot be read ({exc})") from exc
     if optimizer is not None:
-        optimizer.load_state_dict(torch.load(path / "optimizer.pt", weights_only=True))
+        optimizer.load_state_dict(load_optimizer_state(path))
     if scheduler is not None and (path / "scheduler.pt").is_file():
         scheduler.load_state_dict(torch.load(path / "scheduler.pt", weights_only=True))
     if (path / "rng.pt").is_file():
@@ -109,6 +121,14 @@ def load_checkpoint(path: str | os.PathLike[str], optimizer: torch.optim.Optimiz
         np.random.set_state((np_state[0], np_state[1].numpy(), *np_state[2:]))
         random.setstate(_as_tuple(rng["python"]))
     return weights, TrainingState(step=int(meta["step"]), extra=meta.get("extra", {}))
+
+
+def load_optimizer_state(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """A checkpoint's optimizer state dict (tensors and plain containers only: nothing is unpickled)."""
+    file = Path(path) / "optimizer.pt"
+    if not file.is_file():
+        raise ValueError(f"checkpoint {path}: no optimizer.pt (written by another engine, or incomplete)")
+    return torch.load(file, weights_only=True)
 
 
 def _as_tuple(state: Any) -> Any:

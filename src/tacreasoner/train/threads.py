@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import time
 
-__all__ = ["available_cores", "busy_cores_elsewhere", "free_threads"]
+__all__ = ["available_cores", "busy_cores_elsewhere", "free_threads", "training_threads"]
 
 _STAT = "/proc/stat"
 
@@ -65,3 +65,13 @@ def busy_cores_elsewhere(window: float = 0.25) -> float:
 def free_threads() -> int:
     """Threads for a training loop: the available cores minus those other processes keep busy, at least 1."""
     return max(1, int(available_cores() - busy_cores_elsewhere() + 0.5))
+
+
+def training_threads(configured: int | None, local_processes: int = 1) -> int:
+    """``runtime.threads`` when set; with several processes on this machine an equal share of its cores (the same in
+    every process, whatever the load when each starts); alone, :func:`free_threads`."""
+    if configured is not None:
+        return configured
+    if local_processes > 1:
+        return max(1, available_cores() // local_processes)
+    return free_threads()

@@ -23,6 +23,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
 import time
 from collections.abc import Callable
 from contextlib import nullcontext
@@ -34,19 +35,28 @@ import torch
 
 from tacreasoner.train.config import TrainConfig
 from tacreasoner.train.data import VideoBank, batch_plan, collate, load_examples, repeat_tasks, tokenize_examples
+from tacreasoner.train.engine_state import (
+    engine_saves_optimizer,
+    gather_trainable,
+    materialize_sharded,
+    restore_trainable,
+    save_engine_state,
+)
 from tacreasoner.train.head_settings import with_head_settings
-from tacreasoner.train.heads import fit_heads, model_heads
+from tacreasoner.train.heads import fit_heads_once, model_heads
 from tacreasoner.train.progress import StageBar
 from tacreasoner.train.state import (
     cosine_with_warmup,
     latest_checkpoint,
     load_checkpoint,
+    load_optimizer_state,
     save_checkpoint,
     seed_everything,
+    staging_dir,
     truncate_log,
     write_json,
 )
-from tacreasoner.train.threads import free_threads
+from tacreasoner.train.threads import training_threads
 
 __all__ = ["NonFiniteLossError", "StageResult", "check_inputs", "master_weights_in_fp32", "step_seed", "train_stage"]
 
@@ -168,10 +178,6 @@ def _param_groups(model: torch.nn.Module, lr: float, projector_lr: float, weight
             for (is_proj, nd), params in sorted(groups.items())]
 
 
-def _trainable_state(model: torch.nn.Module) -> dict[str, torch.Tensor]:
-    return {name: p.detach() for name, p in model.named_parameters() if p.requires_grad}
-
-
 # ------------------------------------------------------------------------------------------ the run
 
 
@@ -185,8 +191,6 @@ def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_a
     that many steps without the final save (tests of interrupted runs). ``loss_hook(step, micro, loss)``
     may replace a micro-batch's loss (tests of the non-finite-loss guard).
     """
-    from accelerate import Accelerator, DistributedDataParallelKwargs
-
     settings = config.stage(stage)
     if settings.skip:
         raise ValueError(f"stage{stage}.skip is true in this config: nothing to train")
@@ -200,7 +204,7 @@ def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_a
 
     threads_before = torch.get_num_threads()
     if not torch.cuda.is_available():
-        torch.set_num_threads(config.runtime.threads or free_threads())
+        torch.set_num_threads(training_threads(config.runtime.threads, int(os.environ.get("LOCAL_WORLD_SIZE", "1"))))
     log_with = None if config.runtime.log_with == "none" else config.runtime.log_with
     if log_with == "tensorboard":
         try:
@@ -208,20 +212,9 @@ def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_a
         except ImportError:
             raise ValueError('runtime.log_with: tensorboard needs the tensorboard package (pip install -e ".[train]")'
                              ', or set runtime.log_with: none') from None
-    # Under torchrun on a machine without CUDA, Accelerate sets up (gloo) DDP only when told it runs on the CPU;
-    # otherwise every process would train alone and all of them would write the same output_dir.
     world = int(os.environ.get("WORLD_SIZE", "1"))
     settings.micro_batch(f"stage{stage}", world)  # a launch that would change the global batch fails here
-    # Parts of the model speak only in some prompts (the comparator's name matcher in OSC prompts, the clip
-    # reader in one-video prompts), so a batch can leave trainable parameters without a gradient, which plain
-    # DDP refuses; finding them costs one walk of the autograd graph per step.
-    unused = DistributedDataParallelKwargs(find_unused_parameters=True)
-    accelerator = Accelerator(cpu=world > 1 and not torch.cuda.is_available(),
-                              mixed_precision=_mixed_precision(config.runtime.mixed_precision), log_with=log_with,
-                              project_dir=str(out / "logs"), kwargs_handlers=[unused])
-    if world > 1 and accelerator.num_processes == 1:
-        raise RuntimeError(f"WORLD_SIZE is {world} but Accelerate set up no distributed training "
-                           f"({accelerator.distributed_type}): the processes would each train alone")
+    accelerator = make_accelerator(config, world, log_with, out / "logs")
     main = accelerator.is_main_process
     bar = StageBar(config.runtime.progress and main)
     try:
@@ -234,6 +227,30 @@ def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_a
 
             AcceleratorState._reset_state(reset_partial_state=True)
         torch.set_num_threads(threads_before)
+
+
+def make_accelerator(config: TrainConfig, world: int, log_with: str | None, logging_dir: Path) -> Any:
+    """The run's Accelerator: engine from ``accelerate launch`` / ``torchrun``, precision from the config."""
+    from accelerate import Accelerator, DistributedDataParallelKwargs, InitProcessGroupKwargs
+
+    # Parts of the model speak only in some prompts (the comparator's name matcher in OSC prompts, the clip
+    # reader in one-video prompts), so a batch can leave trainable parameters without a gradient, which plain
+    # DDP refuses; finding them costs one walk of the autograd graph per step.
+    handlers: list[Any] = [DistributedDataParallelKwargs(find_unused_parameters=True)]
+    cpu_processes = world > 1 and not torch.cuda.is_available()
+    deepspeed = os.environ.get("ACCELERATE_USE_DEEPSPEED", "false").lower() == "true"
+    if cpu_processes and deepspeed:  # DeepSpeed's CPU accelerator; Accelerate picks no backend without a GPU
+        handlers.append(InitProcessGroupKwargs(backend="gloo"))
+    # Under torchrun on a machine without CUDA, Accelerate sets up (gloo) DDP only when told it runs on the CPU;
+    # otherwise every process would train alone and all of them would write the same output_dir. (DeepSpeed is
+    # set up only when not told so.)
+    accelerator = Accelerator(cpu=cpu_processes and not deepspeed,
+                              mixed_precision=_mixed_precision(config.runtime.mixed_precision), log_with=log_with,
+                              project_dir=str(logging_dir), kwargs_handlers=handlers)
+    if world > 1 and accelerator.num_processes == 1:
+        raise RuntimeError(f"WORLD_SIZE is {world} but Accelerate set up no distributed training "
+                           f"({accelerator.distributed_type}): the processes would each train alone")
+    return accelerator
 
 
 def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, latest: Path | None, stop_after: int | None,
@@ -270,9 +287,14 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
     bank = VideoBank(processor.video_config, processor.sensor_types)
     video_keys = [k for e in tokenized for k in e.videos]
     bar.stage("preprocessing videos", len(set(video_keys)))
-    bank.build(video_keys, progress=lambda done, _total: bar.update(done), cache_dir=config.data.video_cache)
+    # with a disk cache the main process decodes every clip (and runs the frozen ViT) first; the others then read
+    # its files instead of decoding the same clips at once
+    shared_cache = accelerator.main_process_first() if config.data.video_cache else nullcontext()
     encoder = base.tactile_encoder
-    raw = bank.cache_appearance(encoder, cache_dir=config.data.video_cache) if config.data.cache_appearance else None
+    with shared_cache:
+        bank.build(video_keys, progress=lambda done, _total: bar.update(done), cache_dir=config.data.video_cache)
+        raw = bank.cache_appearance(encoder, cache_dir=config.data.video_cache) if config.data.cache_appearance \
+            else None
     if base.encoder_config.standardize_appearance and not encoder.appearance_measured:
         # the training clips' own statistics, before any step (no labels read); kept in the saved model
         raw = raw if raw is not None else bank.appearance_tokens(encoder, standardized=False)
@@ -282,8 +304,9 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
     fitted: dict[str, Any] = {}
     if stage == 2 and model_heads(base):  # encoder frozen from here: fit the read-out heads, then freeze them
         bar.stage("fitting read-out heads", len(tokenized))
-        tokenized, fitted = fit_heads(base, processor, tokenized, bank, config.data.bench, config.seed,
-                                      config.data.head_folds, progress=lambda done, _total: bar.update(done))
+        tokenized, fitted = fit_heads_once(accelerator, base, processor, tokenized, bank, config.data.bench,
+                                           config.seed, config.data.head_folds,
+                                           progress=lambda done, _total: bar.update(done))
     tokenized = repeat_tasks(tokenized, config.data.repeat)
     # the comparator trains with the LLM's loss only in Stage I and only when asked (encoder.cross_video_loss):
     # only then do the batches carry its targets
@@ -292,37 +315,22 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
 
     world = accelerator.num_processes
     micro_batch = settings.micro_batch(f"stage{stage}", world)
-    global_batch = micro_batch * settings.grad_accum * world
+    global_batch = settings.examples_per_step(f"stage{stage}", world)
     lengths = [len(e.input_ids) for e in tokenized]
     optimizer = torch.optim.AdamW(_param_groups(trained, settings.lr, settings.projector_lr or settings.lr,
                                                 settings.weight_decay), betas=(0.9, 0.999))
     scheduler = cosine_with_warmup(optimizer, round(settings.warmup_ratio * settings.steps), settings.steps,
                                    settings.min_lr_ratio)
-    start, elapsed_before = 0, 0.0
-    if latest is not None:
-        weights, state = load_checkpoint(latest, optimizer, scheduler)
-        elapsed_before = float(state.extra.get("train_seconds", 0.0))
-        saved = state.extra.get("fingerprint")
-        now = _fingerprint(config, stage, world)
-        if saved is not None and saved != now:
-            changed = sorted(k for k in now if saved.get(k) != now[k])
-            raise ValueError(f"{latest}: was made with different settings ({', '.join(changed)}); resume with the "
-                             f"original config or choose another output_dir")
-        missing = set(_trainable_state(trained)) - set(weights)
-        if missing:
-            raise ValueError(f"{latest}: lacks trainable weights {sorted(missing)[:5]}")
-        with torch.no_grad():
-            for name, p in trained.named_parameters():
-                if name in weights:
-                    p.copy_(weights[name])
-        start = state.step
     _configure_deepspeed(accelerator, settings, micro_batch)
     trained, optimizer = accelerator.prepare(trained, optimizer)
+    start, elapsed_before = 0, 0.0
+    if latest is not None:  # after prepare: the engine's own (sharded, partitioned) state is what gets restored
+        start, elapsed_before = _resume(accelerator, config, stage, trained, optimizer, scheduler, latest)
     trained.train()
 
     run_info = {"stage": stage, "config": config.to_dict(), "examples": len(tokenized),
                 "dropped_too_long": len(dropped), "dropped_examples": dropped[:20], "videos": len(bank.index),
-                "processes": world, "global_batch": global_batch,
+                "processes": world, "global_batch": global_batch, "engine": _engine_name(accelerator),
                 "mixed_precision": accelerator.mixed_precision, "device": str(accelerator.device),
                 "threads": torch.get_num_threads(),
                 "trainable_parameters": sum(p.numel() for p in base.parameters() if p.requires_grad),
@@ -400,14 +408,11 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
             bar.update(done, f"loss {record['loss']:.4f}  {record['tokens_per_s']:,.0f} tokens/s")
             losses, tokens_window, window_start = [], 0, time.perf_counter()
         if done % config.runtime.checkpoint_every == 0 or done == settings.steps:
-            accelerator.wait_for_everyone()
-            if accelerator.is_main_process:
-                save_checkpoint(out / CHECKPOINTS, done, _trainable_state(accelerator.unwrap_model(trained)),
-                                optimizer, scheduler, keep=config.runtime.keep_checkpoints,
-                                extra={"fingerprint": _fingerprint(config, stage, world), "loss": last_loss,
-                                       "train_seconds": elapsed_before + time.perf_counter() - train_start})
+            _checkpoint(accelerator, config, stage, trained, optimizer, scheduler, done, last_loss,
+                        elapsed_before + time.perf_counter() - train_start)
     train_seconds = elapsed_before + time.perf_counter() - train_start
     accelerator.wait_for_everyone()
+    materialize_sharded(accelerator.unwrap_model(trained))  # FSDP: every process gathers; the main one saves
     model_dir = out / MODEL_DIR
     if accelerator.is_main_process:
         _save(accelerator.unwrap_model(trained), processor, stage, out)
@@ -418,6 +423,51 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
         write_json(out / RUN_FILE, run_info)
     accelerator.wait_for_everyone()
     return StageResult(stage, model_dir, settings.steps, last_loss, train_seconds, len(tokenized), start)
+
+
+def _engine_name(accelerator: Any) -> str:
+    """"fsdp2", "deepspeed-zero2", "multi_cpu", … : what the run trained under, for run.json."""
+    kind = str(getattr(accelerator.distributed_type, "value", accelerator.distributed_type)).lower()
+    if kind == "fsdp":
+        return f"fsdp{accelerator.state.fsdp_plugin.fsdp_version}"
+    if kind == "deepspeed":
+        return f"deepspeed-zero{accelerator.state.deepspeed_plugin.zero_stage}"
+    return kind
+
+
+def _checkpoint(accelerator: Any, config: TrainConfig, stage: int, trained: Any, optimizer: Any, scheduler: Any,
+                done: int, loss: float | None, train_seconds: float) -> None:
+    """Every process: gather the trainable weights and optimizer state (or let DeepSpeed write its partitions); the
+    main process writes them into one atomic checkpoint directory."""
+    ckpt_dir = config.stage_dir(stage) / CHECKPOINTS
+    staged = engine_saves_optimizer(accelerator)
+    if staged:
+        if accelerator.is_main_process:
+            shutil.rmtree(staging_dir(ckpt_dir, done), ignore_errors=True)
+            staging_dir(ckpt_dir, done).mkdir(parents=True)
+        accelerator.wait_for_everyone()
+        save_engine_state(accelerator, staging_dir(ckpt_dir, done))
+    weights, optim_state = gather_trainable(accelerator, trained, optimizer)
+    if accelerator.is_main_process:
+        save_checkpoint(ckpt_dir, done, weights, optim_state, scheduler, keep=config.runtime.keep_checkpoints,
+                        staged=staged, extra={"fingerprint": _fingerprint(config, stage, accelerator.num_processes),
+                                              "loss": loss, "train_seconds": train_seconds})
+    accelerator.wait_for_everyone()
+
+
+def _resume(accelerator: Any, config: TrainConfig, stage: int, trained: Any, optimizer: Any, scheduler: Any,
+            latest: Path) -> tuple[int, float]:
+    """Restore a checkpoint into the prepared model and optimizer; returns its step and training seconds so far."""
+    weights, state = load_checkpoint(latest, None, scheduler)
+    saved = state.extra.get("fingerprint")
+    now = _fingerprint(config, stage, accelerator.num_processes)
+    if saved is not None and saved != now:
+        changed = sorted(k for k in now if saved.get(k) != now[k])
+        raise ValueError(f"{latest}: was made with different settings ({', '.join(changed)}); resume with the "
+                         f"original config or choose another output_dir")
+    optim_state = None if engine_saves_optimizer(accelerator) else load_optimizer_state(latest)
+    restore_trainable(accelerator, trained, optimizer, weights, optim_state, latest)
+    return state.step, float(state.extra.get("train_seconds", 0.0))
 
 
 def master_weights_in_fp32(trained: torch.nn.Module, mixed_precision: str) -> int:
@@ -435,21 +485,16 @@ def master_weights_in_fp32(trained: torch.nn.Module, mixed_precision: str) -> in
 
 
 def refuse_what_fsdp_would_break(accelerator: Any, trained: torch.nn.Module, stage: int) -> None:
-    """Stop before any work where FSDP2 would train the wrong thing or fail deep inside accelerate.
+    """Stop before any work where FSDP2 would fail deep inside accelerate.
 
-    Both were found on an H100 and reproduced on the CPU (docs/training.md, "Configs"):
-    Stage I's new-token rows learn through a gradient hook that FSDP's re-created (sharded) parameters do not
-    carry, so every row would train; in Stage II with tied embeddings PEFT shares one trainable-token delta
-    between input and output embeddings, which accelerate 1.15 (seeing no tie through PEFT's wrappers) shards
-    twice ("Invariant encountered: value was None").
+    Found on an H100 and reproduced on the CPU (docs/training.md, "Configs"): in Stage II with tied embeddings PEFT
+    shares one trainable-token delta between input and output embeddings, which accelerate 1.15 (seeing no tie
+    through PEFT's wrappers) shards twice ("Invariant encountered: value was None"). Stage I's new rows are plain
+    parameters (``model.token_rows``) and shard like any other, tied or not.
     """
     plugin = getattr(accelerator.state, "fsdp_plugin", None)
-    if plugin is None:
+    if plugin is None or stage == 1:
         return
-    if any(getattr(module, "_new_row_hooks", None) for module in trained.modules()):
-        raise ValueError(f"Stage {stage} trains the new token rows through a gradient mask that FSDP's sharded "
-                         f"parameters do not keep: run Stage I with DDP (configs/accelerate/ddp-2gpu.yaml) or "
-                         f"DeepSpeed; its LLM is frozen, so it needs no sharding")
     inputs, outputs = trained.get_input_embeddings(), trained.get_output_embeddings()
     if inputs is None or outputs is None or getattr(inputs, "weight", None) is getattr(outputs, "weight", None):
         return
@@ -464,22 +509,32 @@ def refuse_what_fsdp_would_break(accelerator: Any, trained: torch.nn.Module, sta
 def _configure_deepspeed(accelerator: Any, settings: Any, micro_batch: int) -> None:
     """DeepSpeed reads the micro-batch size from a DataLoader, which this loop does not use: set it here.
 
-    ``accelerator.backward`` steps a DeepSpeed engine after every micro-batch, so accumulation is refused.
+    ``accelerator.backward`` steps a DeepSpeed engine after every micro-batch, so accumulation is refused, and the
+    engine clips the gradients itself at ``max_grad_norm``; ZeRO-3
+    partitions the parameters themselves, which the final save (merging LoRA into whole weights) does not gather.
     """
     plugin = getattr(accelerator.state, "deepspeed_plugin", None)
     if plugin is None:
         return
+    if getattr(plugin, "zero_stage", 2) == 3:
+        raise ValueError("DeepSpeed ZeRO-3 is not supported: the final save would merge partitioned weights. Use "
+                         "ZeRO-2 (configs/accelerate/deepspeed-zero2-2gpu.yaml) or FSDP (fsdp-2gpu.yaml), which "
+                         "also shards the frozen LLM")
     if settings.grad_accum != 1:
         raise ValueError("under DeepSpeed set grad_accum: 1 (raise batch_size or the number of processes instead)")
     plugin.deepspeed_config["train_micro_batch_size_per_gpu"] = micro_batch
     plugin.deepspeed_config["gradient_accumulation_steps"] = 1
+    # the engine clips inside its step (Accelerate's clip_grad_norm_ does nothing under DeepSpeed)
+    plugin.deepspeed_config["gradient_clipping"] = settings.max_grad_norm
 
 
 def _save(trained: Any, processor: Any, stage: int, out: Path) -> None:
     from tacreasoner.model.build import save_model
+    from tacreasoner.model.token_rows import merge_token_rows
 
     trained.eval()
     if stage == 1:
+        merge_token_rows(trained.language_model)  # the new rows back into the matrices: a plain LLM on disk
         save_model(trained, processor, out / MODEL_DIR)
         return
     save_model(trained, processor, out / ADAPTER_DIR)  # PEFT: writes the adapter (LoRA + projector) only
@@ -492,11 +547,7 @@ def _fingerprint(config: TrainConfig, stage: int, world: int) -> dict[str, Any]:
     d = config.to_dict()
     return {"stage": stage, "seed": config.seed, "model": d["model"], "data": d["data"],
             "stage_settings": d[f"stage{stage}"], "lora": d["lora"] if stage == 2 else None,
-            "global_batch": _global_batch(config.stage(stage), stage, world)}
-
-
-def _global_batch(settings: Any, stage: int, world: int) -> int:
-    return settings.micro_batch(f"stage{stage}", world) * settings.grad_accum * world
+            "global_batch": config.stage(stage).examples_per_step(f"stage{stage}", world)}
 
 
 def step_seed(seed: int, rank: int, step: int) -> int:
