@@ -9,7 +9,10 @@ import os
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 import torch
@@ -167,12 +170,10 @@ def _final_trainable(run: Path, stage: int) -> dict[str, torch.Tensor]:
     return load_file(str(sorted((run / f"stage{stage}" / "checkpoints").glob("step-*"))[-1] / "model.safetensors"))
 
 
-def _logits(model_dir: Path, inputs: dict[str, Path]) -> torch.Tensor:
-    """The saved model's logits on the first training prompts (with their videos), as reloaded from disk."""
-    from tacreasoner.model.build import load_model
+def _logits(model: Any, processor: Any, inputs: dict[str, Path]) -> torch.Tensor:
+    """A model's logits on the first training prompts (with their videos)."""
     from tacreasoner.train.data import VideoBank, collate, load_examples, tokenize_examples
 
-    model, processor = load_model(model_dir)
     examples = load_examples(2, inputs["bench"], stage2_data="plain")[:3]
     tokenized, _ = tokenize_examples(processor, examples, 1024)
     bank = VideoBank(processor.video_config, processor.sensor_types)
@@ -183,12 +184,38 @@ def _logits(model_dir: Path, inputs: dict[str, Path]) -> torch.Tensor:
         return model.eval()(**batch).logits
 
 
+def _saved_logits(model_dir: Path, inputs: dict[str, Path]) -> torch.Tensor:
+    from tacreasoner.model.build import load_model
+
+    return _logits(*load_model(model_dir), inputs)
+
+
+@contextmanager
+def _in_memory_logits(inputs: dict[str, Path]) -> Iterator[list[torch.Tensor]]:
+    """The logits of the trained model as the trainer holds it, just before it saves it."""
+    from tacreasoner.train import trainer
+
+    found: list[torch.Tensor] = []
+    save = trainer._save
+
+    def logits_then_save(trained: Any, processor: Any, *args: Any) -> None:
+        found.append(_logits(trained, processor, inputs))
+        save(trained, processor, *args)
+
+    trainer._save = logits_then_save
+    try:
+        yield found
+    finally:
+        trainer._save = save
+
+
 @pytest.mark.parametrize(("engine", "stage"), [("ddp", 2), ("fsdp", 2), ("fsdp", 1), ("deepspeed", 2)])
 def test_a_killed_two_process_run_resumes_to_the_one_process_result_and_saves_a_model_that_answers_alike(
         engine: str, stage: int, inputs, tmp_path, free_port) -> None:
     """2 processes stop after 2 of 4 steps (no final save), resume from the checkpoint under the same engine and
     end where 1 uninterrupted process with the same global batch ends: the checkpointed trainable weights (FSDP
-    gathers its shards into them), the loss log, and the saved model's logits once reloaded."""
+    gathers its shards into them) and the loss log; both saved models, reloaded, answer as the one-process model did
+    in memory before its save."""
     steps = 4
     llm = _untied_llm(inputs, tmp_path / "untied_llm") if engine == "fsdp" else inputs["llm"]
     other = 2 if stage == 1 else 1
@@ -212,7 +239,7 @@ def test_a_killed_two_process_run_resumes_to_the_one_process_result_and_saves_a_
     if engine == "deepspeed":  # its partitioned optimizer state, written by both processes through Accelerate
         assert list((tmp_path / "two" / f"stage{stage}" / "checkpoints" / "step-00000004" / "engine").iterdir())
 
-    with capture_trainable_weights() as in_memory:
+    with capture_trainable_weights() as in_memory, _in_memory_logits(inputs) as answered:
         train_stage(runs["one"], stage)
     two, one = _final_trainable(tmp_path / "two", stage), _final_trainable(tmp_path / "one", stage)
     assert two.keys() == one.keys() and set(in_memory) <= set(one)  # a tied row table appears under both names
@@ -227,5 +254,8 @@ def test_a_killed_two_process_run_resumes_to_the_one_process_result_and_saves_a_
     single = [json.loads(line)["loss"] for line in
               (tmp_path / "one" / f"stage{stage}" / "train_log.jsonl").read_text().splitlines()]
     assert len(log) == steps and log == pytest.approx(single, abs=1e-4)
-    torch.testing.assert_close(_logits(tmp_path / "two" / f"stage{stage}" / "model", inputs),
-                               _logits(tmp_path / "one" / f"stage{stage}" / "model", inputs), rtol=1e-4, atol=1e-4)
+    # the saved model, reloaded, answers as the trained one did in memory; the 2-process run's saved model too
+    torch.testing.assert_close(_saved_logits(tmp_path / "one" / f"stage{stage}" / "model", inputs), answered[0],
+                               rtol=1e-4, atol=1e-4)
+    torch.testing.assert_close(_saved_logits(tmp_path / "two" / f"stage{stage}" / "model", inputs), answered[0],
+                               rtol=1e-4, atol=1e-4)
