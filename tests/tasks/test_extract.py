@@ -81,6 +81,8 @@ def test_strict_accepts_whitespace_and_tag_case() -> None:
     ("reasoning here</think>\nthe second object", "the second object"),  # template-opened think
     ("  just the answer  ", "just the answer"),
     ("<think>only reasoning</think>", None),                          # nothing after the think block
+    ("<think>pressing felt firm, so it is hard", None),               # unclosed think, no cue: reasoning only
+    ("<think>it felt firm", None),
     ("<answer></answer>", None),
     ("", None),
     ("   ", None),

@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 
 from tacreasoner.tasks.schema import CONTACT_STATES, QAItem, VideoRef
 from tacreasoner.tasks.scoring import check_gold, score_item, score_predictions
+from tacreasoner.tasks.vocab import get_vocabulary
 
 
 def make_item(task: str, gold: dict, answer: str, n_videos: int = 1, options: tuple[str, ...] = (),
@@ -196,11 +197,24 @@ def test_ordinal_strict_forms(answer: str, index: int | None) -> None:
 
 @pytest.mark.parametrize(("answer", "index"), [
     ("2nd", 1), ("object 2", 1), ("Video #2", 1), ("2", 1), ("(2)", 1),
-    ("The second object is harder than the first.", 1), ("The first is softer than the second", 0),
+    ("The second object is harder than the first.", 1),
+    ("The first is softer than the second", 1),                    # asked "harder": the object after "than"
+    ("The first is harder than the second, the second softer", 0),
+    ("The second is softer than the first.", 0),
     ("(A)", None), ("B", None),                                    # SFD does not letter its objects
 ])
 def test_ordinal_lenient_forms(answer: str, index: int | None) -> None:
     assert score_item(CASES["SFD-which"].item, wrap(answer), "lenient").parsed == index
+
+
+def test_an_opposite_comparison_names_none_of_three_objects() -> None:
+    """Asked for the grippiest of three, "the first is smoother than the second" does not say which."""
+    item = CASES["SOI"].item
+    assert score_item(item, wrap("The third object"), "lenient").parsed == 2
+    attribute = get_vocabulary(item.vocabulary)["friction"]
+    said = f"The first is {attribute.less} than the second."
+    assert score_item(item, wrap(said), "lenient").parsed is None
+    assert score_item(item, wrap(f"The third is {attribute.more} than the first."), "lenient").parsed == 2
 
 
 def test_ordinal_out_of_range_is_wrong_not_unparseable() -> None:
@@ -209,7 +223,8 @@ def test_ordinal_out_of_range_is_wrong_not_unparseable() -> None:
 
 
 @pytest.mark.parametrize(("answer", "value"), [("no", False), ("No, it is softer.", False), ("yes.", True),
-                                               ("maybe", None)])
+                                               ("maybe", None), ("No doubt: yes.", None),  # says both: nothing read
+                                               ("Yes, yes.", True)])
 def test_yes_no_lenient(answer: str, value: bool | None) -> None:
     assert score_item(CASES["SFD-yesno"].item, wrap(answer), "lenient").parsed == value
 

@@ -7,7 +7,8 @@ Two modes, lm-evaluation-harness style:
   block, with no further think/answer tags anywhere. Anything else is a format failure (``None``).
 * ``lenient`` — for baselines (API VLMs, untuned LLMs) that half-follow the format. It tries, in
   order: the last closed ``<answer>…</answer>``; the tail after an unclosed ``<answer>``; the text
-  after a final "Answer:" / "answer is"; the whole text without its reasoning. It never raises.
+  after a final "Answer:" / "answer is"; the whole text without its reasoning (nothing after an unclosed
+  ``<think>``: that text is reasoning). It never raises.
 
 Tags are matched case-insensitively. Whenever ``strict`` returns ``s``, ``lenient`` returns ``s`` too
 (strict ⊆ lenient), so a lenient score can only be higher than a strict one. Both return ``None``
@@ -80,7 +81,9 @@ def _lenient(text: str) -> str | None:
     if opens:
         return _without_tags(text[opens[-1][2]:]).strip() or None
     think_closes = [t for t in tags if t[0] == "</think>"]
-    # After a (possibly template-opened) think block; an unclosed <think> leaves only reasoning.
+    # After a (possibly template-opened) think block. Reasoning is never an answer: after an unclosed <think> only
+    # an answer cue inside it ("... Answer: sliding") is read.
+    unclosed = any(t[0] == "<think>" for t in tags) and not think_closes
     body = text[think_closes[-1][2]:] if think_closes else text
     body = _without_tags(body)
     cues = list(_ANSWER_CUE.finditer(body))
@@ -88,7 +91,7 @@ def _lenient(text: str) -> str | None:
         tail = _LEADING_JUNK.sub("", body[cues[-1].end():]).strip()
         if tail:
             return tail
-    return body.strip() or None
+    return None if unclosed else body.strip() or None
 
 
 def extract_answer(text: str, mode: Mode | str = "strict") -> str | None:

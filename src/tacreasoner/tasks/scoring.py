@@ -170,14 +170,17 @@ def _ordinal_index(token: str) -> int:
     return _ORDINAL_WORDS[token] if token in _ORDINAL_WORDS else int(token) - 1
 
 
-def parse_ordinal(text: str, lenient: bool = False) -> int | None:
+def parse_ordinal(text: str, lenient: bool = False, *, asked: str | None = None, opposite: str | None = None,
+                  n_objects: int = 2) -> int | None:
     """0-based object index named by ``text`` (SFD "which", SOI).
 
     Strict: "the first object", "first", "the first" or "first object" (likewise second/third).
     Lenient: strict, else every ordinal mention in the text — "first", "2nd", "object 2", "video 3",
     "#1", or a bare "2" as the whole answer — must name the same object. In a comparison the part
-    after "than" is ignored ("the first object is harder than the second" → first). Letters such as
-    "(A)" are not read: SFD/SOI questions do not letter their objects, so a letter has no meaning.
+    after "than" is ignored ("the first object is harder than the second" → first), unless it uses the
+    ``opposite`` of the ``asked`` comparative: asked "which is harder?", "the first is softer than the second"
+    names the second of two objects (and none of three). Letters such as "(A)" are not read: SFD/SOI questions do
+    not letter their objects, so a letter has no meaning.
     """
     canon = _canon(text)
     m = _STRICT_ORDINAL.fullmatch(canon)
@@ -187,12 +190,24 @@ def parse_ordinal(text: str, lenient: bool = False) -> int | None:
         return None
     loose = _loose(text).strip(" .!")
     than = _THAN.search(loose)
+    if than and opposite and _says(loose[: than.start()], opposite) and not \
+            (asked and _says(loose[: than.start()], asked)):
+        after = _ordinal_hits(loose[than.end():])
+        return _single(after) if n_objects == 2 and after else None
     scopes = [loose[: than.start()], loose] if than else [loose]
     for scope in scopes:
-        hits = [_ordinal_index(m.group(1)) for pattern in _LENIENT_ORDINALS for m in pattern.finditer(scope.strip())]
+        hits = _ordinal_hits(scope)
         if hits:
             return _single(hits)
     return None
+
+
+def _ordinal_hits(text: str) -> list[int]:
+    return [_ordinal_index(m.group(1)) for pattern in _LENIENT_ORDINALS for m in pattern.finditer(text.strip())]
+
+
+def _says(text: str, word: str) -> bool:
+    return _phrase_regex(word).search(text) is not None
 
 
 _RELATION_WORDS = {
@@ -224,14 +239,14 @@ _YES_NO = re.compile(r"\b(yes|no)\b")
 
 
 def parse_yes_no(text: str, lenient: bool = False) -> bool | None:
-    """True for yes, False for no. Strict: exactly "yes"/"no". Lenient: the first yes/no word."""
+    """True for yes, False for no. Strict: exactly "yes"/"no". Lenient: every yes/no word in the text must say the
+    same ("No doubt: yes" says both, so nothing is read)."""
     canon = _canon(text)
     if canon in ("yes", "no"):
         return canon == "yes"
     if not lenient:
         return None
-    m = _YES_NO.search(_loose(text))
-    return None if m is None else m.group(1) == "yes"
+    return _single([m.group(1) == "yes" for m in _YES_NO.finditer(_loose(text))])
 
 
 _OSC_PAIR = re.compile(r"([123])\s*-\s*([abc])")
@@ -459,7 +474,12 @@ def _score_combined(item: QAItem, answer: str, lenient: bool) -> ItemScore:
 def _score_ordinal(item: QAItem, answer: str, lenient: bool) -> ItemScore:
     n = len(item.videos)
     gold = _gold(item, "index", range(n))
-    parsed = parse_ordinal(answer, lenient)
+    asked = opposite = None
+    attribute = get_vocabulary(item.vocabulary).get(str(item.gold.get("attribute"))) if lenient else None
+    if attribute is not None and item.gold.get("direction") in ("more", "most", "less", "least"):
+        asked, opposite = ((attribute.more, attribute.less) if item.gold["direction"] in ("more", "most")
+                           else (attribute.less, attribute.more))
+    parsed = parse_ordinal(answer, lenient, asked=asked, opposite=opposite, n_objects=n)
     extra = {"n_objects": n}
     if parsed is not None and parsed >= n:
         extra["invalid"] = f"names object {parsed + 1} of {n}"
