@@ -23,20 +23,9 @@ from typing import TYPE_CHECKING, Annotated, ParamSpec, TypeVar
 
 import typer
 from rich.console import Console
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    ProgressColumn,
-    Task,
-    TaskID,
-    TextColumn,
-    TimeElapsedColumn,
-    TimeRemainingColumn,
-)
-from rich.text import Text
 
 from tacreasoner import __version__
+from tacreasoner.progress import ProgressBar
 
 if TYPE_CHECKING:
     from tacreasoner.cot.backends import TeacherConfig
@@ -50,7 +39,6 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 console = Console(highlight=False, soft_wrap=True)
-progress_console = Console(stderr=True)
 
 P = ParamSpec("P")
 R = TypeVar("R")
@@ -100,40 +88,26 @@ def _sensor_list(text: str) -> list[str]:
 # ------------------------------------------------------------------------------------------ progress
 
 
-class _RateColumn(ProgressColumn):
-    def __init__(self, unit: str = "clips") -> None:
-        super().__init__()
-        self._unit = unit
-
-    def render(self, task: Task) -> Text:
-        speed = task.speed
-        return Text(f"{speed:.2f} {self._unit}/s" if speed else f"– {self._unit}/s", style="progress.data.speed")
-
-
 class ClipProgress:
-    """A rich progress bar fed by ``generate_dataset``'s ``progress(done, total)`` callback.
+    """A progress display fed by ``generate_dataset``'s ``progress(done, total)`` callback (and others alike).
 
-    It starts on the first report, so a run that fails its argument checks prints no empty bar, and
-    clips already on disk (resume) count as done without inflating the clips/s rate.
+    It starts on the first report, so a run that fails its argument checks prints nothing, and clips already on
+    disk (resume) count as done without inflating the rate. A live bar on a terminal, plain lines in a log
+    (:class:`tacreasoner.progress.ProgressBar`).
     """
 
     def __init__(self, label: str = "simulating", unit: str = "clips") -> None:
         self._label = label
         self._unit = unit
-        self._progress: Progress | None = None
-        self._task: TaskID | None = None
+        self._bar = ProgressBar()
+        self._started = False
 
     def __call__(self, done: int, total: int) -> None:
-        if self._progress is None:
-            self._progress = Progress(
-                TextColumn(self._label), BarColumn(), MofNCompleteColumn(), TextColumn(self._unit),
-                _RateColumn(self._unit), TextColumn("elapsed"), TimeElapsedColumn(), TextColumn("ETA"),
-                TimeRemainingColumn(), console=progress_console,
-            )
-            self._progress.start()
-            self._task = self._progress.add_task(self._label, total=total, completed=done)
-        elif self._task is not None:
-            self._progress.update(self._task, completed=done)
+        if not self._started:
+            self._bar.stage(self._label, total, done, unit=self._unit)
+            self._started = True
+        else:
+            self._bar.update(done)
 
     def __enter__(self) -> ClipProgress:
         return self
@@ -143,8 +117,7 @@ class ClipProgress:
         self.close()
 
     def close(self) -> None:
-        if self._progress is not None:
-            self._progress.stop()
+        self._bar.close()
 
 
 # ------------------------------------------------------------------------------------------ simulate

@@ -41,7 +41,7 @@ from tacreasoner.model.appearance import AppearanceEncoder
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.masked_video import MaskedVideoConfig, MaskedVideoModel, tube_mask
 from tacreasoner.model.video_processing import VideoProcessingConfig, preprocess_video
-from tacreasoner.train.progress import StageBar
+from tacreasoner.progress import ProgressBar
 from tacreasoner.train.state import (
     cosine_with_warmup,
     latest_checkpoint,
@@ -381,14 +381,14 @@ def pretrain_encoder(
         start = state.step
 
     out.mkdir(parents=True, exist_ok=True)
-    bar = StageBar(progress)
+    bar = ProgressBar(progress)
     t0 = time.perf_counter()
     threads_before = torch.get_num_threads()
     torch.set_num_threads(free_threads() if threads is None else max(1, int(threads)))
     try:
         data = None
         if start < steps:
-            bar.stage("preprocessing clips", len(clips))
+            bar.stage("preprocessing clips", len(clips), unit="clips")
             data = preprocess_clips(clips, video_config, samples_per_clip, seed, workers=workers,
                                     progress=bar.update)
         t_pre = time.perf_counter() - t0
@@ -408,9 +408,9 @@ def pretrain_encoder(
 
 def _train(model: MaskedVideoModel, optimizer: torch.optim.Optimizer, scheduler: Any, data: torch.Tensor, out: Path,
            run: dict, start: int, steps: int, batch_size: int, seed: int, log_every: int, checkpoint_every: int,
-           bar: StageBar, t_pre: float) -> None:
+           bar: ProgressBar, t_pre: float) -> None:
     grid, ratio = model.encoder.config.grid, model.config.mask_ratio
-    bar.stage("pre-training encoder", steps, start)
+    bar.stage("pre-training encoder", steps, start, unit="steps")
     model.train()
     window: list[float] = []
     t_start = time.perf_counter()

@@ -29,6 +29,7 @@ import torch
 
 from tacreasoner.knowledge.corpus import EVAL_KINDS, Corpus, EvalQuestion, build_corpus, chatml
 from tacreasoner.model.tokenizer import END_OF_TEXT, IM_END, tokenizer_training_texts, train_tokenizer
+from tacreasoner.progress import ProgressBar
 from tacreasoner.train.state import (
     cosine_with_warmup,
     latest_checkpoint,
@@ -261,39 +262,6 @@ def _load_tokenizer_or_train(out: Path, corpus: Corpus, vocab_size: int, resume:
     return AutoTokenizer.from_pretrained(tok_dir)  # exactly what a resumed run will use
 
 
-class _Bar:
-    """A rich progress bar with loss and tokens/s (a no-op when ``progress`` is off)."""
-
-    def __init__(self, enabled: bool, total: int, done: int) -> None:
-        self._progress = None
-        if not enabled:
-            return
-        from rich.console import Console
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
-
-        self._progress = Progress(TextColumn("pre-training LLM"), BarColumn(), MofNCompleteColumn(),
-                                  TextColumn("steps  loss {task.fields[loss]}  {task.fields[rate]} tokens/s"),
-                                  TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
-                                  console=Console(stderr=True))
-        self._progress.start()
-        self._task = self._progress.add_task("pretrain", total=total, completed=done, loss="–", rate="–")
-
-    def update(self, step: int, loss: float, rate: float) -> None:
-        if self._progress is not None:
-            self._progress.update(self._task, completed=step, loss=f"{loss:.3f}", rate=f"{rate:,.0f}")
-
-    def close(self) -> None:
-        if self._progress is not None:
-            self._progress.stop()
-
-
 # ------------------------------------------------------------------------------------------ training
 
 
@@ -387,7 +355,8 @@ def _train(out: Path, settings: PretrainSettings, *, resume: bool, progress: boo
         last_loss = state.extra.get("loss")
 
     model.train()
-    bar = _Bar(progress, steps, step)
+    bar = ProgressBar(progress)
+    bar.stage("pre-training LLM", steps, step, unit="steps")
     batches = _batches(examples, settings, pad_id, step)
     log_path = out / LOG_FILE
     window_tokens, window_start = 0, time.perf_counter()
@@ -409,7 +378,7 @@ def _train(out: Path, settings: PretrainSettings, *, resume: bool, progress: boo
             window_tokens += real
             rate = window_tokens / max(1e-9, time.perf_counter() - window_start)
             last_loss = loss.item()
-            bar.update(step, last_loss, rate)
+            bar.update(step, f"loss {last_loss:.3f}  {rate:,.0f} tokens/s")
             if step % log_every == 0 or step == steps:
                 record = {"step": step, "loss": round(last_loss, 4), "lr": scheduler.get_last_lr()[0],
                           "tokens": tokens_seen, "tokens_per_s": round(rate, 1),

@@ -33,6 +33,7 @@ from typing import Any
 
 import torch
 
+from tacreasoner.progress import ProgressBar
 from tacreasoner.train.config import TrainConfig
 from tacreasoner.train.data import VideoBank, batch_plan, collate, load_examples, repeat_tasks, tokenize_examples
 from tacreasoner.train.engine_state import (
@@ -44,7 +45,6 @@ from tacreasoner.train.engine_state import (
 )
 from tacreasoner.train.head_settings import with_head_settings
 from tacreasoner.train.heads import fit_heads_once, model_heads
-from tacreasoner.train.progress import StageBar
 from tacreasoner.train.state import (
     cosine_with_warmup,
     latest_checkpoint,
@@ -216,7 +216,7 @@ def train_stage(config: TrainConfig, stage: int, *, resume: bool = False, stop_a
     settings.micro_batch(f"stage{stage}", world)  # a launch that would change the global batch fails here
     accelerator = make_accelerator(config, world, log_with, out / "logs")
     main = accelerator.is_main_process
-    bar = StageBar(config.runtime.progress and main)
+    bar = ProgressBar(config.runtime.progress and main)
     try:
         return _run(config, stage, accelerator, bar, latest, stop_after, on_log, loss_hook)
     finally:
@@ -253,8 +253,8 @@ def make_accelerator(config: TrainConfig, world: int, log_with: str | None, logg
     return accelerator
 
 
-def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, latest: Path | None, stop_after: int | None,
-         on_log: Callable[[dict[str, Any]], None] | None,
+def _run(config: TrainConfig, stage: int, accelerator: Any, bar: ProgressBar, latest: Path | None,
+         stop_after: int | None, on_log: Callable[[dict[str, Any]], None] | None,
          loss_hook: Callable[[int, int, torch.Tensor], torch.Tensor] | None) -> StageResult:
     from transformers.utils import logging as hf_logging
 
@@ -286,7 +286,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
         raise ValueError(f"every example is longer than data.max_length={config.data.max_length} tokens")
     bank = VideoBank(processor.video_config, processor.sensor_types)
     video_keys = [k for e in tokenized for k in e.videos]
-    bar.stage("preprocessing videos", len(set(video_keys)))
+    bar.stage("preprocessing videos", len(set(video_keys)), unit="clips")
     # with a disk cache the main process decodes every clip (and runs the frozen ViT) first; the others then read
     # its files instead of decoding the same clips at once
     shared_cache = accelerator.main_process_first() if config.data.video_cache else nullcontext()
@@ -344,7 +344,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: StageBar, lates
                                                               if isinstance(v, int | float | str | bool)})
         truncate_log(out / LOG_FILE, start)
 
-    bar.stage(f"stage {stage} training", settings.steps, start)
+    bar.stage(f"stage {stage} training", settings.steps, start, unit="steps")
     rank, last_loss = accelerator.process_index, None
     tokens_window, window_start, train_start = 0, time.perf_counter(), time.perf_counter()
     losses: list[float] = []
