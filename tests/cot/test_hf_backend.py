@@ -8,14 +8,12 @@ import time
 from pathlib import Path
 
 import pytest
+import torch
+import transformers
 
-torch = pytest.importorskip("torch")
-transformers = pytest.importorskip("transformers")
-tokenizers = pytest.importorskip("tokenizers")
-
-from tacreasoner.cot.backends import Teacher, TeacherConfig, make_teacher  # noqa: E402
-from tacreasoner.cot.hf_backend import HFTeacher  # noqa: E402
-from tacreasoner.cot.schema import Prompt  # noqa: E402
+from tacreasoner.cot.backends import Teacher, TeacherConfig, make_teacher
+from tacreasoner.cot.hf_backend import HFTeacher
+from tacreasoner.cot.schema import Prompt
 
 CHAT_TEMPLATE = (
     "{% for message in messages %}<|im_start|>{{ message['role'] }}\n{{ message['content'] }}<|im_end|>\n"

@@ -7,9 +7,6 @@ import time
 from collections.abc import Iterator
 
 import pytest
-
-pytest.importorskip("openai")
-
 from fake_openai_server import FakeOpenAIServer
 
 from tacreasoner.cot.backends import Teacher, TeacherConfig, TeacherError, reply_to_output

@@ -6,12 +6,10 @@ import json
 from pathlib import Path
 
 import pytest
+import torch
 
-torch = pytest.importorskip("torch")
-pytest.importorskip("safetensors")
-
-from tacreasoner.model.appearance import AppearanceEncoder, patchify, sinusoid_table  # noqa: E402
-from tacreasoner.model.encoder_config import TactileEncoderConfig  # noqa: E402
+from tacreasoner.model.appearance import AppearanceEncoder, patchify, sinusoid_table
+from tacreasoner.model.encoder_config import TactileEncoderConfig
 
 CFG = TactileEncoderConfig(num_frames=4, image_size=(16, 24), patch_size=8, tubelet_size=2, hidden_size=32,
                            num_layers=2, num_heads=4, tokens_per_video=1, fusion_heads=4)

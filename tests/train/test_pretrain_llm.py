@@ -6,12 +6,10 @@ import json
 from pathlib import Path
 
 import pytest
+import torch
 
-torch = pytest.importorskip("torch")
-pytest.importorskip("transformers")
-
-from tacreasoner.knowledge import build_corpus  # noqa: E402
-from tacreasoner.train.pretrain_llm import evaluate_knowledge, pretrain_llm  # noqa: E402
+from tacreasoner.knowledge import build_corpus
+from tacreasoner.train.pretrain_llm import evaluate_knowledge, pretrain_llm
 
 MODEL = {"hidden_size": 32, "num_hidden_layers": 1, "num_attention_heads": 2, "num_key_value_heads": 1,
          "intermediate_size": 64}

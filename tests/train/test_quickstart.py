@@ -107,9 +107,10 @@ def test_results_table_says_which_tasks_beat_chance(trained_run) -> None:
     wrong = root / "wrong.jsonl"
     wrong.write_text("".join(json.dumps({"id": i.id, "prediction": "no idea"}) + "\n" for i in items))
     rows, verdict = results_table(evaluate(items, [perfect], "strict", root / "perfect"), {})
+    assert len(verdict) > 1 and len(rows[2:-1]) == len(verdict)  # the checks below are never vacuously true
     assert all(verdict.values()) and all(row.endswith("| yes |") for row in rows[2:-1])
-    _, verdict = results_table(evaluate(items, [wrong], "strict", root / "wrong"), {"random": {}})
-    assert not any(verdict.values())
+    _, wrong_verdict = results_table(evaluate(items, [wrong], "strict", root / "wrong"), {"random": {}})
+    assert wrong_verdict.keys() == verdict.keys() and not any(wrong_verdict.values())
 
 
 def test_quickstart_touchcot_is_the_brief_first_rules_teacher_with_repeats_kept(

@@ -123,7 +123,6 @@ def test_only_items_with_levels_are_rehearsed_and_bad_input_is_named(inputs, tmp
 
 
 def test_pretraining_adds_the_rehearsal_and_checks_its_settings(inputs, tmp_path: Path) -> None:
-    pytest.importorskip("transformers")
     from tacreasoner.train.pretrain_llm import pretrain_llm
 
     run = {"steps": 2, "batch_size": 2, "seq_len": 512, "vocab_size": 400, "progress": False, "threads": 1,
