@@ -209,7 +209,7 @@ def _in_memory_logits(inputs: dict[str, Path]) -> Iterator[list[torch.Tensor]]:
         trainer._save = save
 
 
-@pytest.mark.parametrize(("engine", "stage"), [("ddp", 2), ("fsdp", 2), ("fsdp", 1), ("deepspeed", 2)])
+@pytest.mark.parametrize(("engine", "stage"), [("ddp", 2), ("ddp", 1), ("fsdp", 2), ("fsdp", 1), ("deepspeed", 2)])
 def test_a_killed_two_process_run_resumes_to_the_one_process_result_and_saves_a_model_that_answers_alike(
         engine: str, stage: int, inputs, tmp_path, free_port) -> None:
     """2 processes stop after 2 of 4 steps (no final save), resume from the checkpoint under the same engine and
