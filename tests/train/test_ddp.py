@@ -146,20 +146,23 @@ def test_a_non_finite_loss_on_one_process_stops_every_process_promptly(inputs, t
     assert not (tmp_path / "weights").exists()
 
 
-def _untied_llm(inputs: dict[str, Path], directory: Path) -> Path:
-    """The tiny LLM with its output layer untied (a copy of the input embeddings), as Qwen2.5-7B/14B are: the
-    Stage II model FSDP2 can shard (a tied one is refused, see tests/model/test_stages.py). Three of its token ids
-    are marked untrained (as ``pretrain-llm`` marks them), so both stages also train new token rows."""
+def _llm_with_new_rows(inputs: dict[str, Path], directory: Path, *, untie: bool) -> Path:
+    """The tiny LLM with three token ids marked untrained (as ``pretrain-llm`` marks them), so both stages also train
+    new token rows (the tiny tokenizer adds none). ``untie``: its output layer a copy of the input embeddings, as
+    Qwen2.5-7B/14B have it: the Stage II model FSDP2 can shard (a tied one is refused, tests/model/test_stages.py);
+    tied, one row table serves input and output and must be checkpointed once."""
     from transformers import AutoTokenizer, Qwen2ForCausalLM
 
     if not (directory / "config.json").is_file():
         llm = Qwen2ForCausalLM.from_pretrained(inputs["llm"])
-        llm.config.tie_word_embeddings = False
-        untied = Qwen2ForCausalLM(llm.config)
-        state = llm.state_dict()
-        state["lm_head.weight"] = llm.get_input_embeddings().weight.detach().clone()
-        untied.load_state_dict(state)
-        untied.save_pretrained(directory)
+        if untie:
+            llm.config.tie_word_embeddings = False
+            untied = Qwen2ForCausalLM(llm.config)
+            state = llm.state_dict()
+            state["lm_head.weight"] = llm.get_input_embeddings().weight.detach().clone()
+            untied.load_state_dict(state)
+            llm = untied
+        llm.save_pretrained(directory)
         AutoTokenizer.from_pretrained(inputs["llm"]).save_pretrained(directory)
         (directory / "untrained_tokens.json").write_text(json.dumps({"ids": [5, 6, 7]}))
     return directory
@@ -217,7 +220,7 @@ def test_a_killed_two_process_run_resumes_to_the_one_process_result_and_saves_a_
     gathers its shards into them) and the loss log; both saved models, reloaded, answer as the one-process model did
     in memory before its save."""
     steps = 4
-    llm = _untied_llm(inputs, tmp_path / "untied_llm") if engine == "fsdp" else inputs["llm"]
+    llm = _llm_with_new_rows(inputs, tmp_path / "llm", untie=engine == "fsdp")
     other = 2 if stage == 1 else 1
     runs = {}
     for name, batch in (("two", {"global_batch": 4}), ("one", {"batch_size": 4})):
@@ -243,8 +246,7 @@ def test_a_killed_two_process_run_resumes_to_the_one_process_result_and_saves_a_
         train_stage(runs["one"], stage)
     two, one = _final_trainable(tmp_path / "two", stage), _final_trainable(tmp_path / "one", stage)
     assert two.keys() == one.keys() and set(in_memory) <= set(one)  # a tied row table appears under both names
-    if engine == "fsdp":  # its LLM has untrained rows (the tied tiny LLM's tokenizer adds none)
-        assert any(".rows" in n or "trainable_tokens" in n for n in two), "the new token rows were not checkpointed"
+    assert any(".rows" in n or "trainable_tokens" in n for n in two), "the new token rows were not checkpointed"
     for name in in_memory:
         torch.testing.assert_close(one[name], in_memory[name], rtol=0, atol=0, msg=name)
     for name in one:
