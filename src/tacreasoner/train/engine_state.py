@@ -42,14 +42,13 @@ def gather_trainable(accelerator: Any, trained: torch.nn.Module, optimizer: Any,
                      ) -> tuple[dict[str, torch.Tensor], dict[str, Any] | None]:
     """Full trainable weights (by name) and, except under DeepSpeed, the optimizer state keyed by name."""
     # one name per parameter: a tied LLM's row table (input and output) is saved once, as safetensors requires
-    names = {n for n, p in accelerator.unwrap_model(trained).named_parameters() if p.requires_grad}
+    trainable = {n: p for n, p in accelerator.unwrap_model(trained).named_parameters() if p.requires_grad}
     if engine_saves_optimizer(accelerator):  # ZeRO-1/2 keep every parameter whole on every process (ZeRO-3 refused)
-        return {n: p.detach().cpu().clone() for n, p in accelerator.unwrap_model(trained).named_parameters()
-                if n in names}, None
+        return {n: p.detach().cpu().clone() for n, p in trainable.items()}, None
     from torch.distributed.checkpoint.state_dict import get_state_dict
 
     weights, optim = get_state_dict(_inner(trained), _inner_optimizer(optimizer), options=_full_options())
-    return {k: v for k, v in weights.items() if k in names}, optim  # not the fitted buffers: the config refits them
+    return {k: v for k, v in weights.items() if k in trainable}, optim  # not the fitted buffers: the config refits them
 
 
 def restore_trainable(accelerator: Any, trained: torch.nn.Module, optimizer: Any, weights: dict[str, torch.Tensor],

@@ -21,8 +21,8 @@ import numpy as np
 import torch
 from safetensors.torch import load_file, save_file
 
-__all__ = ["TrainingState", "cosine_with_warmup", "latest_checkpoint", "load_checkpoint", "load_optimizer_state",
-           "save_checkpoint", "seed_everything", "staging_dir", "truncate_log", "write_json"]
+__all__ = ["TrainingState", "cosine_with_warmup", "fresh_staging_dir", "latest_checkpoint", "load_checkpoint",
+           "load_optimizer_state", "save_checkpoint", "seed_everything", "staging_dir", "truncate_log", "write_json"]
 
 CHECKPOINT_PREFIX = "step-"
 
@@ -63,6 +63,14 @@ def staging_dir(run_dir: str | os.PathLike[str], step: int) -> Path:
     return Path(run_dir) / f".tmp-{CHECKPOINT_PREFIX}{step:08d}"
 
 
+def fresh_staging_dir(run_dir: str | os.PathLike[str], step: int) -> Path:
+    """:func:`staging_dir`, emptied of any earlier attempt and created."""
+    tmp = staging_dir(run_dir, step)
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    return tmp
+
+
 def save_checkpoint(run_dir: str | os.PathLike[str], step: int, weights: dict[str, torch.Tensor],
                     optimizer: torch.optim.Optimizer | dict[str, Any] | None, scheduler: Any | None = None, *,
                     extra: dict[str, Any] | None = None, keep: int = 2, staged: bool = False) -> Path:
@@ -73,10 +81,7 @@ def save_checkpoint(run_dir: str | os.PathLike[str], step: int, weights: dict[st
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     final = run_dir / f"{CHECKPOINT_PREFIX}{step:08d}"
-    tmp = staging_dir(run_dir, step)
-    if not staged:
-        shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir(exist_ok=True)
+    tmp = staging_dir(run_dir, step) if staged else fresh_staging_dir(run_dir, step)
     save_file({k: v.detach().contiguous().cpu() for k, v in weights.items()}, str(tmp / "model.safetensors"))
     if optimizer is not None:
         state = optimizer if isinstance(optimizer, dict) else optimizer.state_dict()

@@ -23,7 +23,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import shutil
 import time
 from collections.abc import Callable
 from contextlib import nullcontext
@@ -47,6 +46,7 @@ from tacreasoner.train.head_settings import with_head_settings
 from tacreasoner.train.heads import fit_heads_once, model_heads
 from tacreasoner.train.state import (
     cosine_with_warmup,
+    fresh_staging_dir,
     latest_checkpoint,
     load_checkpoint,
     load_optimizer_state,
@@ -443,8 +443,7 @@ def _checkpoint(accelerator: Any, config: TrainConfig, stage: int, trained: Any,
     staged = engine_saves_optimizer(accelerator)
     if staged:
         if accelerator.is_main_process:
-            shutil.rmtree(staging_dir(ckpt_dir, done), ignore_errors=True)
-            staging_dir(ckpt_dir, done).mkdir(parents=True)
+            fresh_staging_dir(ckpt_dir, done)
         accelerator.wait_for_everyone()
         save_engine_state(accelerator, staging_dir(ckpt_dir, done))
     weights, optim_state = gather_trainable(accelerator, trained, optimizer)
