@@ -114,27 +114,40 @@ def serve(
     max_videos: Annotated[int, typer.Option("--max-videos", help="Videos per request.")] = 4,
     allow_dir: Annotated[list[Path] | None, typer.Option(
         "--allow-dir", help="Directory whose files clients may name as file:// URLs (repeatable).")] = None,
+    threads: Annotated[int | None, typer.Option(
+        "--threads", help="CPU threads the model may use (torch.set_num_threads; at least 1). Default: torch's "
+                          "choice (usually one per core).", show_default=False)] = None,
 ) -> None:
     """Serve a trained model with the OpenAI chat completions API (videos as video_url parts)."""
     _needs_train_extra("serve")
     _needs_serve_extra("serve")
-    from tacreasoner.serve.http import serve_forever
+    from tacreasoner.serve.http import bind_socket, serve_forever
     from tacreasoner.serve.media import MediaLimits
     from tacreasoner.serve.openai_api import ServerSettings, create_app
 
-    for value, option in ((max_batch, "--max-batch"), (max_pending, "--max-pending"), (max_videos, "--max-videos")):
+    for value, option in ((max_batch, "--max-batch"), (max_pending, "--max-pending"), (max_videos, "--max-videos"),
+                          (threads, "--threads")):
         _at_least_one(option, value)
     dirs = tuple(d.resolve() for d in allow_dir or [])
     for d in dirs:
         if not d.is_dir():
             raise FileNotFoundError(f"--allow-dir {d}: no such directory")
-    engine = _load_engine(model, name)
-    settings = ServerSettings(api_key=api_key, max_request_bytes=int(max_request_mb * 2**20),
-                              decode_timeout_s=decode_timeout, max_pending=max_pending, max_batch=max_batch,
-                              limits=MediaLimits(max_videos=max_videos, allowed_dirs=dirs))
-    console.print(f"serving {model} as {name!r} on http://{host}:{port}/v1 "
-                  f"({'API key required' if api_key else 'no API key'}; batching up to {max_batch})")
-    serve_forever(create_app(engine, settings), host=host, port=port)
+    sock = bind_socket(host, port)  # a taken port is found now, not after loading the model
+    try:
+        if threads is not None:
+            import torch
+
+            torch.set_num_threads(threads)
+        engine = _load_engine(model, name)
+        settings = ServerSettings(api_key=api_key, max_request_bytes=int(max_request_mb * 2**20),
+                                  decode_timeout_s=decode_timeout, max_pending=max_pending, max_batch=max_batch,
+                                  limits=MediaLimits(max_videos=max_videos, allowed_dirs=dirs))
+        console.print(f"serving {model} as {name!r} on http://{host}:{port}/v1 "
+                      f"({'API key required' if api_key else 'no API key'}; batching up to {max_batch}"
+                      f"{f'; torch threads: {threads}' if threads else ''})")
+        serve_forever(create_app(engine, settings), host=host, port=port, sock=sock)
+    finally:
+        sock.close()
 
 
 @app.command()

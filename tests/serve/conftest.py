@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -43,3 +44,13 @@ def served_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def clip_files(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
     root = tmp_path_factory.mktemp("clips")
     return [write_video(root / f"press_{k}.mp4", press_clip(k), fps=10) for k in range(3)]
+
+
+@pytest.fixture
+def write_clip(tmp_path: Path) -> Callable[..., Path]:
+    """``write_clip(name, frames, fps=10)``: frames as a video file in the test's folder (a one-frame clip, say)."""
+
+    def write(name: str, frames: object, fps: float = 10) -> Path:
+        return write_video(tmp_path / name, frames, fps=fps)  # type: ignore[arg-type]
+
+    return write

@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import json
 import os
+import socket
 import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import httpx
 import openai
+import pytest
 from served import ONE, free_port
 from typer.testing import CliRunner
 
@@ -71,3 +74,51 @@ def test_serve_answers_the_openai_client(served_model: Path, clip_files: list[Pa
     finally:
         server.terminate()
         server.wait(timeout=30)
+
+
+@pytest.mark.parametrize("listening", [True, False])
+def test_serve_finds_a_taken_port_before_loading_the_model(tmp_path: Path, listening: bool) -> None:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as taken:
+        taken.bind(("127.0.0.1", 0))
+        if listening:
+            taken.listen()
+        port = taken.getsockname()[1]
+        started = time.monotonic()
+        result = CliRunner().invoke(app, ["serve", "--model", str(tmp_path), "--port", str(port)])  # not a model
+    assert result.exit_code == 2 and time.monotonic() - started < 30
+    assert result.output.strip().splitlines() == \
+        [f"error: cannot listen on 127.0.0.1:{port}: Address already in use (is another server running there?)"]
+
+
+def test_serve_threads_sets_torchs_threads_and_is_checked(served_model: Path, tmp_path: Path,
+                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    import torch
+
+    from tacreasoner.serve import http
+
+    help_text = CliRunner().invoke(app, ["serve", "--help"], env={"COLUMNS": "200"}).output
+    assert "--threads" in help_text and "torch.set_num_threads" in help_text
+    result = CliRunner().invoke(app, ["serve", "--model", str(tmp_path), "--threads", "0"])
+    assert result.exit_code == 2 and result.output.strip() == "error: --threads must be at least 1, got 0"
+    seen: dict[str, Any] = {}
+
+    def served(app: Any, host: str, port: int, sock: socket.socket | None = None, **kwargs: Any) -> None:
+        seen.update(threads=torch.get_num_threads(), bound=sock.getsockname() if sock else None)
+
+    monkeypatch.setattr(http, "serve_forever", served)
+    before = torch.get_num_threads()
+    port = free_port()
+    try:
+        result = CliRunner().invoke(app, ["serve", "--model", str(served_model), "--port", str(port), "--threads",
+                                          "1"])
+    finally:
+        torch.set_num_threads(before)
+    assert result.exit_code == 0, result.output
+    assert seen == {"threads": 1, "bound": ("127.0.0.1", port)} and "torch threads: 1" in result.output
+
+
+def test_the_serve_extra_brings_the_openai_client_the_docs_use() -> None:
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11+
+    pyproject = tomllib.loads((Path(__file__).resolve().parents[2] / "pyproject.toml").read_text())
+    extras = pyproject["project"]["optional-dependencies"]
+    assert "openai>=1.40" in extras["serve"] and "openai>=1.40" in extras["api"]

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from served import ONE, REPLIES, TWO
+from served import ONE, REPLIES, TWO, press_clip
 
 from tacreasoner.serve import Delta, Prompt, Reply, RequestError, Sampling, TactileEngine
-from tacreasoner.serve.engine import DecodeTimeout
+from tacreasoner.serve.engine import MIN_CLIP_FRAMES, DecodeTimeout
 from tacreasoner.tasks.extract import split_reasoning
 
 
@@ -79,3 +80,27 @@ def test_cancelling_and_the_deadline_stop_decoding(engine: TactileEngine, clip_f
     with pytest.raises(DecodeTimeout, match="limit") as caught:
         list(engine.stream(prompt, Sampling(max_new_tokens=200), timeout_s=0.0))
     assert caught.value.partial is not None and caught.value.partial.completion_tokens < 200
+
+
+def test_a_clip_needs_at_least_two_frames(engine: TactileEngine, write_clip: Callable[..., Path]) -> None:
+    one = press_clip(0)[5:6]
+    with pytest.raises(RequestError, match=rf"video 1: the clip has 1 frame .*at least {MIN_CLIP_FRAMES} are needed") \
+            as caught:
+        engine.prepare(Prompt.ask(ONE, [one]))
+    assert caught.value.code == "video_too_short"
+    with pytest.raises(RequestError, match="the clip has 1 frame"):
+        engine.prepare(Prompt.ask(ONE, [write_clip("one.mp4", one)]))
+    assert MIN_CLIP_FRAMES == 2
+    engine.prepare(Prompt.ask(ONE, [press_clip(0)[5:7]]))  # two frames: a change to read
+
+
+def test_timings_count_preparing_done_before_the_call(engine: TactileEngine, clip_files: list[Path]) -> None:
+    prepared = engine.prepare(Prompt.ask(ONE, [clip_files[0]]))
+    assert prepared.prepare_s > 0
+    for reply in (engine.complete(prepared, Sampling(max_new_tokens=4)),
+                  engine.complete_batch([prepared, prepared], [Sampling(max_new_tokens=4)] * 2)[0]):
+        t = reply.timings
+        assert t["prepare_s"] >= round(prepared.prepare_s, 4) > 0
+        assert t["total_s"] == pytest.approx(t["prepare_s"] + t["decode_s"], abs=2e-4)
+    with pytest.raises(RequestError, match="max_tokens must be at least 1, got 0"):
+        Sampling(max_new_tokens=0)

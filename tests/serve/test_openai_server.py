@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import base64
+import io
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -12,9 +13,10 @@ from typing import Any
 import httpx
 import openai
 import pytest
-from served import ONE, REPLIES, TWO, free_port
+from served import ONE, REPLIES, TWO, free_port, press_clip
 
 from tacreasoner.serve import TactileEngine
+from tacreasoner.serve.engine import MIN_CLIP_FRAMES
 from tacreasoner.serve.http import ServerThread
 from tacreasoner.serve.media import MediaLimits, video_data_url
 from tacreasoner.serve.openai_api import ServerSettings, create_app
@@ -212,3 +214,91 @@ def test_a_full_queue_answers_busy_instead_of_waiting(engine: TactileEngine, cli
         for t in threads:
             t.join(timeout=60)
     assert sum(not isinstance(r, Exception) for r in results) == 2
+
+
+def _png() -> bytes:
+    """A real PNG image (FFmpeg reads one as a one-frame video)."""
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    Image.fromarray(press_clip(0)[6]).save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+NO_USABLE_CLIP: dict[str, tuple[Callable[[Callable[..., Path]], list[dict[str, Any]]], str, tuple[str, ...]]] = {
+    "a tactile question without a clip": (lambda t: _ask("Is this object soft or hard?"), "missing_video",
+                                          ("no tactile clip was sent", "video_url")),
+    "a placeholder without a clip": (lambda t: [{"role": "user", "content": ONE}], "placeholder_mismatch",
+                                     ("1 <tactile> placeholder", "no tactile clip")),
+    "a placeholder without a clip, as parts": (lambda t: _ask(ONE), "placeholder_mismatch",
+                                               ("1 <tactile> placeholder", "no tactile clip")),
+    "a PNG sent as video/mp4": (lambda t: _ask(ONE, _raw(_png())), "video_too_short",
+                                ("the clip has 1 frame", "at least 2 are needed")),
+    "a one-frame video": (lambda write: _ask(ONE, _video(write("one.mp4", press_clip(0)[5:6]))), "video_too_short",
+                          ("the clip has 1 frame", "at least 2 are needed")),
+}
+
+
+@pytest.mark.parametrize("case", list(NO_USABLE_CLIP))
+def test_a_question_without_a_usable_clip_is_refused_not_answered(url: str, write_clip: Callable[..., Path],
+                                                                  case: str) -> None:
+    make, code, said = NO_USABLE_CLIP[case]
+    with pytest.raises(openai.BadRequestError) as caught:
+        _client(url).chat.completions.create(model="tacreasoner", messages=make(write_clip), max_tokens=8)
+    assert caught.value.status_code == 400 and caught.value.code == code
+    message = caught.value.body["message"]  # type: ignore[index]
+    assert all(s in message for s in said), message
+    assert f"at least {MIN_CLIP_FRAMES}" in message or code != "video_too_short"
+
+
+@pytest.mark.parametrize("case", ["not a video", "a truncated video"])
+def test_a_video_error_says_its_reason_once(url: str, clip_files: list[Path], case: str) -> None:
+    make, _, _ = BAD[case]
+    with pytest.raises(openai.BadRequestError) as caught:
+        _client(url).chat.completions.create(model="tacreasoner", messages=make(clip_files), max_tokens=8)
+    message = caught.value.body["message"]  # type: ignore[index]
+    assert message.startswith("messages[0].content[0]: ") and message.count("not a readable video") <= 1, message
+    assert ".video" not in message, "the server's temporary file is not named"
+
+
+@pytest.mark.parametrize("field", ["max_tokens", "max_completion_tokens"])
+@pytest.mark.parametrize("value", [0, -5])
+def test_max_tokens_below_one_is_refused_zero_included(url: str, clip_files: list[Path], field: str,
+                                                       value: int) -> None:
+    with pytest.raises(openai.BadRequestError) as caught:
+        _client(url).chat.completions.create(model="tacreasoner", messages=_ask(ONE, _video(clip_files[0])),
+                                             **{field: value})
+    assert caught.value.body["message"] == f"{field} must be at least 1, got {value}"  # type: ignore[index]
+    assert caught.value.param == field
+
+
+@pytest.mark.parametrize("body", ["[1, 2]", '"hello"', "3", "null"])
+def test_a_body_that_is_not_a_json_object_is_a_400_saying_so(url: str, body: str) -> None:
+    answer = httpx.post(f"{url}/v1/chat/completions", content=body,
+                        headers={"Authorization": f"Bearer {KEY}", "Content-Type": "application/json"})
+    assert answer.status_code == 400
+    message = answer.json()["error"]["message"]
+    assert message.startswith("the body must be a JSON object") and "ChatRequest" not in message, message
+
+
+def test_timings_count_the_time_spent_preparing_the_clip(url: str, clip_files: list[Path]) -> None:
+    answer = httpx.post(f"{url}/v1/chat/completions", headers={"Authorization": f"Bearer {KEY}"}, timeout=60,
+                        json={"model": "tacreasoner", "messages": _ask(ONE, _video(clip_files[0])), "max_tokens": 8})
+    timings = answer.json()["timings"]
+    assert timings["prepare_s"] > 0, "decoding the clip and tokenising take time"
+    assert timings["total_s"] >= timings["prepare_s"] + timings["decode_s"] - 1e-3
+
+
+def test_the_api_schema_needs_the_key_too(url: str) -> None:
+    assert httpx.get(f"{url}/openapi.json").status_code == 401
+    assert httpx.get(f"{url}/openapi.json", headers={"Authorization": "Bearer wrong"}).status_code == 401
+    schema = httpx.get(f"{url}/openapi.json", headers={"Authorization": f"Bearer {KEY}"})
+    assert schema.status_code == 200 and "/v1/chat/completions" in schema.json()["paths"]
+    for page in ("/docs", "/redoc"):  # not served at all
+        assert httpx.get(f"{url}{page}", headers={"Authorization": f"Bearer {KEY}"}).status_code == 404
+    assert httpx.get(f"{url}/health").status_code == 200, "health stays open"
+
+
+def test_without_a_key_the_schema_is_open(engine: TactileEngine, free_port: Callable[[], int]) -> None:
+    with _server(engine, free_port()) as base:
+        assert httpx.get(f"{base}/openapi.json").status_code == 200

@@ -1,33 +1,51 @@
 """``tacreasoner demo``: a web page to show what the sensor felt next to what the model said (gradio).
 
-Upload one to three clips (or pick simulated ones), see sampled frames, where the gel changed (the mean
-frame-difference heat map) and how the contact built up and let go (contact energy with the detected phases), ask a
-question and watch the reasoning stream in. The plots come from :mod:`tacreasoner.data.cues`, the same signals the
-TouchCoT teacher reads.
+Upload one to three clips (or pick a simulated one, or a simulated pair), see sampled frames, where the gel changed
+(the mean frame-difference heat map) and how the contact built up and let go (contact energy with the detected
+phases), ask a question and watch the reasoning stream in. The plots come from :mod:`tacreasoner.data.cues`, the same
+signals the TouchCoT teacher reads. Each upload or pick replaces the clips shown before; a user's mistake (no clip,
+an unreadable or too short or too long clip, too many clips) is a warning on the page and one log line, never a
+traceback.
 """
 
 from __future__ import annotations
 
 import io
+import logging
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from tacreasoner.data.cues import detect_phases, frame_signals
-from tacreasoner.data.video import read_video, write_video
-from tacreasoner.serve.engine import Prompt, Reply, RequestError, Sampling, TactileEngine
+from tacreasoner.data.video import probe_video, read_video, write_video
+from tacreasoner.serve.engine import Prompt, Reply, RequestError, Sampling, TactileEngine, check_clip_length
+from tacreasoner.serve.media import MediaLimits
 from tacreasoner.serve.stream import Delta
 from tacreasoner.tasks.schema import PLACEHOLDER
 
-__all__ = ["EXAMPLES", "build_demo", "clip_views", "example_clips", "question_for"]
+__all__ = ["EXAMPLES", "EXAMPLE_CHOICES", "DemoCallbacks", "build_demo", "chosen_clips", "clip_views",
+           "example_clips", "heat_figure", "latest_upload", "question_for", "read_clips"]
+
+log = logging.getLogger("tacreasoner.demo")
 
 EXAMPLES = {"real apple (slide)": ("apple_real", "slide"), "fake apple (slide)": ("apple_fake", "slide"),
             "sponge (rotate)": ("sponge", "rotate"), "metal (slide)": ("metal", "slide")}
 """Simulated GelSight Mini clips the page offers without an upload: name → (material, action)."""
+EXAMPLE_CHOICES = {**{name: (name,) for name in EXAMPLES},
+                   "real vs fake apple (slide)": ("real apple (slide)", "fake apple (slide)"),
+                   "sponge vs metal": ("sponge (rotate)", "metal (slide)")}
+"""What the examples menu offers: one clip, or a pair to compare. One choice at a time, since a new choice replaces
+the clips shown before (a menu that added each pick to the last ones piled clips up unseen)."""
 MAX_CLIPS = 3
+FRAMES_SHOWN = 6
+"""Sampled frames shown per clip: one row of its own gallery."""
+TITLE_CHARS = 28
+"""Longest clip name in a plot title; longer names (uploads' file names) are shortened so titles never overlap."""
+USER_ERRORS = (RequestError, ValueError, FileNotFoundError)
+"""A user's mistakes (VideoError is a ValueError): shown on the page, logged in one line, no traceback."""
 PHASE_COLOURS = {"press": "#4e79a7", "hold": "#59a14f", "slide": "#f28e2b", "rotate": "#f28e2b",
                  "dynamic": "#f28e2b", "release": "#e15759"}
 
@@ -68,28 +86,40 @@ def _figure_png(fig: Any) -> np.ndarray:
     return plt.imread(buffer, format="png")[..., :3]
 
 
-def clip_views(clips: Sequence[np.ndarray], names: Sequence[str], fps: Sequence[float], n_frames: int = 6,
-               ) -> tuple[list[tuple[np.ndarray, str]], np.ndarray, np.ndarray]:
-    """Sampled frames (captioned), the frame-difference heat maps side by side, and the contact-energy curves
-    with their detected phases."""
+def _pyplot() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    gallery = []
-    for frames, name in zip(clips, names, strict=True):
-        for t in np.linspace(0, len(frames) - 1, n_frames).round().astype(int):
-            gallery.append((frames[t], f"{name}: frame {t}"))
-    heat_fig, axes = plt.subplots(1, len(clips), figsize=(3.2 * len(clips), 2.8), squeeze=False)
-    curve_fig, curve_axes = plt.subplots(len(clips), 1, figsize=(6.4, 1.9 * len(clips)), squeeze=False)
-    for k, (frames, name, rate) in enumerate(zip(clips, names, fps, strict=True)):
+    return plt
+
+
+def _short(name: str, chars: int = TITLE_CHARS) -> str:
+    return name if len(name) <= chars else name[:chars - 1] + "…"
+
+
+def heat_figure(clips: Sequence[np.ndarray], names: Sequence[str]) -> Any:
+    """The frame-difference heat maps side by side, one (shortened) name above each; the constrained layout keeps
+    titles and colour bars inside the figure and apart."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, len(clips), figsize=(3.2 * len(clips), 3.0), squeeze=False, layout="constrained")
+    fig.suptitle("mean |frame − first frame|", fontsize=9)
+    for k, (frames, name) in enumerate(zip(clips, names, strict=True)):
         grey = frames.astype(np.float32).mean(axis=-1)
         heat = np.abs(grey - grey[0]).mean(axis=0)
         image = axes[0, k].imshow(heat, cmap="inferno")
-        axes[0, k].set_title(f"{name}\nmean |frame − first frame|", fontsize=8)
+        axes[0, k].set_title(_short(name), fontsize=8)
         axes[0, k].axis("off")
-        heat_fig.colorbar(image, ax=axes[0, k], fraction=0.046)
+        fig.colorbar(image, ax=axes[0, k], fraction=0.046)
+    return fig
+
+
+def _curve_figure(clips: Sequence[np.ndarray], names: Sequence[str], fps: Sequence[float]) -> Any:
+    plt = _pyplot()
+    fig, curve_axes = plt.subplots(len(clips), 1, figsize=(6.4, 1.9 * len(clips)), squeeze=False,
+                                   layout="constrained")
+    for k, (frames, name, rate) in enumerate(zip(clips, names, fps, strict=True)):
         signals = frame_signals(frames)
         phases = detect_phases(signals)
         seconds = np.arange(len(frames)) / rate
@@ -100,49 +130,144 @@ def clip_views(clips: Sequence[np.ndarray], names: Sequence[str], fps: Sequence[
             if inside.any():
                 ax.fill_between(seconds, 0, signals.intensity.max() * 1.05, where=inside, color=colour, alpha=0.25,
                                 label=phase, step="mid")
-        ax.set_title(name, fontsize=8)
+        ax.set_title(_short(name, 2 * TITLE_CHARS), fontsize=8)
         ax.set_ylabel("contact energy", fontsize=8)
         if ax.get_legend_handles_labels()[1]:
             ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     curve_axes[-1, 0].set_xlabel("time (s)")
-    curve_fig.tight_layout()
-    return gallery, _figure_png(heat_fig), _figure_png(curve_fig)
+    return fig
 
 
-def _chosen(uploaded: Sequence[Any] | None, picked: Sequence[str] | None,
-            examples: dict[str, Path]) -> list[tuple[str, Path]]:
-    files = [(Path(getattr(f, "name", f)).name, Path(getattr(f, "name", f))) for f in uploaded or []]
-    files += [(name, examples[name]) for name in picked or [] if name in examples]
+def clip_views(clips: Sequence[np.ndarray], names: Sequence[str], fps: Sequence[float],
+               n_frames: int = FRAMES_SHOWN) -> tuple[list[tuple[np.ndarray, str]], np.ndarray, np.ndarray]:
+    """Sampled frames (captioned; ``n_frames`` per clip, clip after clip), the frame-difference heat maps side by
+    side, and the contact-energy curves with their detected phases."""
+    gallery = []
+    for frames, name in zip(clips, names, strict=True):
+        for t in np.linspace(0, len(frames) - 1, n_frames).round().astype(int):
+            gallery.append((frames[t], f"{name}: frame {t}"))
+    return gallery, _figure_png(heat_figure(clips, names)), _figure_png(_curve_figure(clips, names, fps))
+
+
+def _paths(files: Sequence[Any] | None) -> list[Path]:
+    """Paths of what a file box holds (gradio gives paths, or objects with a ``name``)."""
+    return [Path(getattr(f, "name", f)) for f in files or []]
+
+
+def latest_upload(files: Sequence[Any] | None, before: Sequence[str]) -> list[Path]:
+    """The files of the latest upload alone: gradio's multi-file box adds each upload to the files before it, but a
+    new upload should replace the clips shown."""
+    paths = _paths(files)
+    new = [p for p in paths if str(p) not in set(before)]
+    return new or paths
+
+
+def chosen_clips(uploads: Sequence[Path], choice: str | None, examples: dict[str, Path]) -> list[tuple[str, Path]]:
+    """(name, path) of the clips to show and ask about: the uploads, else the chosen example(s)."""
+    files = [(p.name, p) for p in uploads] or \
+        [(name, examples[name]) for name in EXAMPLE_CHOICES.get(choice or "", ()) if name in examples]
     if len(files) > MAX_CLIPS:
         raise RequestError(f"{len(files)} clips chosen; the demo takes 1 to {MAX_CLIPS}")
     return files
 
 
-def build_demo(engine: TactileEngine, examples: dict[str, Path], *, max_new_tokens: int = 256) -> Any:
-    """The gradio Blocks app (``.launch()`` it)."""
-    os.environ.setdefault("GRADIO_ANALYTICS_ENABLED", "False")
-    import gradio as gr
+def read_clips(chosen: Sequence[tuple[str, Path]], max_frames: int = MediaLimits().max_frames,
+               ) -> tuple[list[np.ndarray], list[float]]:
+    """Each clip's frames and fps; too long (more than ``max_frames``, as the server's limit), too short or
+    unreadable is a ``ValueError`` naming the clip, said once."""
+    frames, fps = [], []
+    for name, path in chosen:
+        too_long = RequestError(f"{name}: longer than {max_frames} frames; the demo takes clips up to that length")
+        if probe_video(path).n_frames > max_frames:  # before decoding it all
+            raise too_long
+        clip, rate = read_video(path)  # whole: a truncated file is refused, not shown in part
+        if len(clip) > max_frames:
+            raise too_long
+        check_clip_length(len(clip), name)
+        frames.append(clip)
+        fps.append(rate)
+    return frames, fps
 
-    def show(uploaded: Any, picked: Any) -> tuple[Any, Any, Any]:
-        try:
-            chosen = _chosen(uploaded, picked, examples)
-            if not chosen:
-                return [], None, None
-            decoded = [read_video(path) for _, path in chosen]
-        except (RequestError, ValueError, FileNotFoundError) as exc:
-            raise gr.Error(str(exc)) from None
-        return clip_views([f for f, _ in decoded], [n for n, _ in chosen], [r for _, r in decoded])
 
-    def ask(uploaded: Any, picked: Any, question: str, sample: bool) -> Iterator[tuple[str, str, str]]:
+class DemoCallbacks:
+    """What the page's events call, kept apart from the page so that tests call them directly. Each returns the new
+    values of its outputs; a user's mistake (:data:`USER_ERRORS`) goes to ``warn`` (``gr.Warning``: a message on the
+    page) and one log line instead of a traceback, and leaves the views empty."""
+
+    def __init__(self, engine: TactileEngine, examples: dict[str, Path], *, max_new_tokens: int = 256,
+                 max_frames: int = MediaLimits().max_frames, warn: Callable[[str], Any] | None = None) -> None:
+        import gradio as gr
+
+        self.gr = gr
+        self.engine = engine
+        self.examples = examples
+        self.max_new_tokens = max_new_tokens
+        self.max_frames = max_frames
+        self.warn = warn or gr.Warning
+
+    def _fail(self, exc: BaseException) -> str:
+        message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        log.warning("demo: %s", message)
+        self.warn(message)
+        return message
+
+    def _views(self, chosen: Sequence[tuple[str, Path]]) -> tuple[Any, ...]:
+        """One gallery per clip (its frames in one row, never hidden in a scroll), the heat maps, the curves."""
+        hidden = self.gr.update(value=None, visible=False)
+        if not chosen:
+            return (*[hidden] * MAX_CLIPS, None, None)
         try:
-            chosen = _chosen(uploaded, picked, examples)
+            frames, fps = read_clips(chosen, self.max_frames)
+            names = [name for name, _ in chosen]
+            gallery, heat, curve = clip_views(frames, names, fps, FRAMES_SHOWN)
+        except USER_ERRORS as exc:
+            self._fail(exc)
+            return (*[hidden] * MAX_CLIPS, None, None)
+        galleries = [self.gr.update(value=gallery[k * FRAMES_SHOWN:(k + 1) * FRAMES_SHOWN], label=names[k],
+                                    visible=True) for k in range(len(chosen))]
+        return (*galleries, *[hidden] * (MAX_CLIPS - len(chosen)), heat, curve)
+
+    def upload(self, files: Sequence[Any] | None, before: Sequence[str] | None) -> tuple[Any, ...]:
+        """A new upload: its files replace the clips before (uploaded or picked). Outputs: the file box, what it
+        holds now (state), the examples menu (cleared), the views."""
+        latest = latest_upload(files, before or [])
+        try:
+            chosen = chosen_clips(latest, None, self.examples)
+        except USER_ERRORS as exc:
+            self._fail(exc)
+            chosen = []
+        return ([str(p) for p in latest], [str(p) for p in latest], None, *self._views(chosen))
+
+    def files_changed(self, files: Sequence[Any] | None) -> tuple[Any, ...]:
+        """A file removed from the box, or the box cleared: the clips left. Outputs: state, the views."""
+        paths = _paths(files)
+        try:
+            chosen = chosen_clips(paths, None, self.examples)
+        except USER_ERRORS as exc:
+            self._fail(exc)
+            chosen = []
+        return ([str(p) for p in paths], *self._views(chosen))
+
+    def pick(self, choice: str | None) -> tuple[Any, ...]:
+        """An example chosen from the menu: it replaces the clips before. Outputs: the file box (emptied), state,
+        the views."""
+        return (None, [], *self._views(chosen_clips([], choice, self.examples)))
+
+    def ask(self, files: Sequence[Any] | None, choice: str | None, question: str, sample: bool,
+            ) -> Iterator[tuple[str, str, str]]:
+        """(reasoning, answer, status) as the reply streams in."""
+        try:
+            chosen = chosen_clips(_paths(files), choice, self.examples)
             if not chosen:
-                raise RequestError("upload a clip or pick a simulated example first")
-            prompt = Prompt.ask(question_for(question.strip(), len(chosen)), [str(p) for _, p in chosen])
-            sampling = Sampling(max_new_tokens=max_new_tokens, temperature=0.7 if sample else 0.0,
+                raise RequestError("no clip: upload a clip or pick a simulated example first")
+            if not question.strip():
+                raise RequestError("no question: write one first")
+            frames, _ = read_clips(chosen, self.max_frames)  # decoded once, checked: a message naming the clip
+            prompt = Prompt.ask(question_for(question.strip(), len(chosen)), frames)
+            sampling = Sampling(max_new_tokens=self.max_new_tokens, temperature=0.7 if sample else 0.0,
                                 top_p=0.9 if sample else 1.0)
             parts = {"reasoning": "", "content": ""}
-            for piece in engine.stream(prompt, sampling):
+            for piece in self.engine.stream(prompt, sampling):
                 if isinstance(piece, Delta):
                     parts[piece.channel] += piece.text
                     yield parts["reasoning"], parts["content"], "answering…"
@@ -150,19 +275,33 @@ def build_demo(engine: TactileEngine, examples: dict[str, Path], *, max_new_toke
                     t = piece.timings
                     yield piece.reasoning, piece.content or "(no answer)", \
                         f"{piece.completion_tokens} tokens in {t['total_s']:.2f} s ({piece.finish_reason})"
-        except (RequestError, ValueError, FileNotFoundError) as exc:
-            raise gr.Error(str(exc)) from None
+        except USER_ERRORS as exc:
+            yield "", "", f"**{self._fail(exc)}**"
 
+
+def build_demo(engine: TactileEngine, examples: dict[str, Path], *, max_new_tokens: int = 256) -> Any:
+    """The gradio Blocks app (``.launch()`` it)."""
+    os.environ.setdefault("GRADIO_ANALYTICS_ENABLED", "False")
+    import gradio as gr
+
+    calls = DemoCallbacks(engine, examples, max_new_tokens=max_new_tokens)
     with gr.Blocks(title="TacReasoner") as page:
         gr.Markdown("# TacReasoner\nTactile clips in, reasoning and an answer out. Upload 1 to 3 GelSight-style "
-                    "videos or pick simulated ones; write `<tactile>` where each clip belongs in the question, "
-                    "or leave it out and the clips go first.")
+                    "videos (each upload replaces the clips before) or pick a simulated example; write `<tactile>` "
+                    "where each clip belongs in the question, or leave it out and the clips go first.")
+        # the files the box held after the last upload; a hidden component, not gr.State (whose per-session
+        # heartbeat keeps a connection open for as long as the page is)
+        held = gr.JSON([], visible=False)
         with gr.Row():
             uploaded = gr.File(label="Tactile clips (1 to 3)", file_count="multiple",
                                file_types=[".mp4", ".mov", ".avi", ".mkv", ".webm"], elem_id="clips")
-            picked = gr.Dropdown(list(examples), label="…or simulated examples (GelSight Mini)", multiselect=True,
-                                 max_choices=MAX_CLIPS, elem_id="examples")
-        gallery = gr.Gallery(label="Sampled frames", columns=6, height=220, elem_id="frames")
+            choices = [name for name, parts in EXAMPLE_CHOICES.items() if all(p in examples for p in parts)]
+            picked = gr.Dropdown(choices, value=None, label="…or a simulated example (GelSight Mini)",
+                                 elem_id="examples")
+        # one gallery per clip, one row each: its default height holds the row (one gallery of all the clips'
+        # frames, 220 px high, hid the second clip's row in its scroll)
+        galleries = [gr.Gallery(label=f"Clip {k + 1}: sampled frames", columns=FRAMES_SHOWN, visible=False,
+                                elem_id=f"frames-{k}") for k in range(MAX_CLIPS)]
         with gr.Row():
             heat = gr.Image(label="Where the gel changed", elem_id="heat")
             curve = gr.Image(label="Contact energy and phases", elem_id="curve")
@@ -174,8 +313,12 @@ def build_demo(engine: TactileEngine, examples: dict[str, Path], *, max_new_toke
         reasoning = gr.Textbox(label="Reasoning", lines=4, elem_id="reasoning")
         answer = gr.Textbox(label="Answer", elem_id="answer")
         status = gr.Markdown(elem_id="status")
-        for source in (uploaded, picked):
-            source.change(show, [uploaded, picked], [gallery, heat, curve])
-        button.click(ask, [uploaded, picked, question, sample], [reasoning, answer, status])
-        question.submit(ask, [uploaded, picked, question, sample], [reasoning, answer, status])
+        views = [*galleries, heat, curve]
+        # user actions only (upload, delete, clear, input): the values these callbacks set fire no new event
+        uploaded.upload(calls.upload, [uploaded, held], [uploaded, held, picked, *views])
+        uploaded.delete(calls.files_changed, [uploaded], [held, *views])
+        uploaded.clear(calls.files_changed, [uploaded], [held, *views])
+        picked.input(calls.pick, [picked], [uploaded, held, *views])
+        button.click(calls.ask, [uploaded, picked, question, sample], [reasoning, answer, status])
+        question.submit(calls.ask, [uploaded, picked, question, sample], [reasoning, answer, status])
     return page

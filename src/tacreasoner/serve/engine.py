@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 from transformers import StoppingCriteria, StoppingCriteriaList
 from transformers.generation.streamers import BaseStreamer
@@ -31,7 +32,14 @@ from transformers.generation.streamers import BaseStreamer
 from tacreasoner.serve.stream import Delta, ReasoningSplitter, StopMatcher, split_channels
 from tacreasoner.tasks.schema import PLACEHOLDER
 
-__all__ = ["DecodeTimeout", "Prompt", "Reply", "RequestError", "Sampling", "TactileEngine"]
+__all__ = ["MIN_CLIP_FRAMES", "DecodeTimeout", "Prompt", "Reply", "RequestError", "Sampling", "TactileEngine",
+           "check_clip_length"]
+
+MIN_CLIP_FRAMES = 2
+"""The fewest frames a clip may have. The model reads a touch from how the gel changes: each sampled frame minus the
+clip's first frame (the gel at rest), and the temporal branch's frame differences. One frame holds no change at all
+(its background-subtracted input is blank), so a still image or a one-frame clip would be answered from nothing;
+the video processor repeats frames to fill its ``num_frames``, so two distinct frames are enough to read."""
 
 
 class RequestError(ValueError):
@@ -64,7 +72,7 @@ class Sampling:
 
     def __post_init__(self) -> None:
         if self.max_new_tokens < 1:
-            raise RequestError(f"max_tokens must be >= 1, got {self.max_new_tokens}", param="max_tokens")
+            raise RequestError(f"max_tokens must be at least 1, got {self.max_new_tokens}", param="max_tokens")
         if not 0.0 <= self.temperature <= 2.0:
             raise RequestError(f"temperature must be in [0, 2], got {self.temperature}", param="temperature")
         if not 0.0 < self.top_p <= 1.0:
@@ -119,15 +127,44 @@ class Reply:
                 "timings": self.timings}
 
 
+def check_clip_length(n_frames: int, where: str, param: str | None = None) -> None:
+    """A clip shorter than :data:`MIN_CLIP_FRAMES` is the client's fault (a still image sent as a video, say)."""
+    if n_frames < MIN_CLIP_FRAMES:
+        still = " (a still image?)" if n_frames == 1 else ""
+        raise RequestError(f"{where}: the clip has {n_frames} frame{'s' if n_frames != 1 else ''}{still}; at least "
+                           f"{MIN_CLIP_FRAMES} are needed, since a touch is read from how the gel changes between "
+                           f"frames", param=param, code="video_too_short")
+
+
 @dataclass
 class _Prepared:
     """One prompt's row (ids, question mask, videos), ready for ``processor.collate`` alone or with others."""
 
     row: dict[str, Any]
+    prepare_s: float = 0.0
+    """Seconds spent preparing it (decoding the videos, tokenising), wherever that happened: reported in timings."""
 
     @property
     def prompt_tokens(self) -> int:
         return len(self.row["input_ids"])
+
+
+def _long_enough(video: Any, k: int) -> Any:
+    """The video, checked to have :data:`MIN_CLIP_FRAMES` frames; a path becomes a clip (probed, not decoded: the
+    processor decodes it as it would the path)."""
+    from tacreasoner.data.clip import TactileClip
+    from tacreasoner.data.readers import read_video_clip
+
+    if isinstance(video, str | os.PathLike):
+        video = read_video_clip(Path(video))
+    if isinstance(video, TactileClip):
+        n = video.n_frames if video.n_frames is not None else len(video.frames)
+    elif isinstance(video, np.ndarray) and video.ndim == 4:
+        n = len(video)
+    else:
+        return video  # not frames: the processor says what is wrong with it
+    check_clip_length(n, f"video {k}", "messages")
+    return video
 
 
 class _TokenQueue(BaseStreamer):
@@ -193,19 +230,24 @@ class TactileEngine:
     # ------------------------------------------------------------------ preparing
     def prepare(self, prompt: Prompt) -> _Prepared:
         """Token ids, masks and preprocessed videos of one prompt; :class:`RequestError` for the client's faults."""
+        start = time.perf_counter()
         if prompt.placeholders != len(prompt.videos):
             raise RequestError(f"the messages hold {prompt.placeholders} {PLACEHOLDER} placeholder(s) but "
                                f"{len(prompt.videos)} video(s) were given: one {PLACEHOLDER} per video",
                                param="messages", code="placeholder_mismatch")
         try:
             enc = self.processor.encode_conversation(list(prompt.messages), add_generation_prompt=True)
-            videos = self.processor.preprocess_videos(list(prompt.videos))
+            clips = [_long_enough(v, k) for k, v in enumerate(prompt.videos, 1)]
+            videos = self.processor.preprocess_videos(clips)
+        except RequestError:
+            raise
         except (ValueError, FileNotFoundError) as exc:
             raise RequestError(str(exc).splitlines()[0], param="messages") from exc
         if self.max_prompt_tokens and len(enc.input_ids) >= self.max_prompt_tokens:
             raise RequestError(f"the prompt is {len(enc.input_ids)} tokens; this model reads at most "
                                f"{self.max_prompt_tokens}", param="messages", code="context_length_exceeded")
-        return _Prepared({"input_ids": enc.input_ids, "question_mask": enc.question_mask, **videos})
+        return _Prepared({"input_ids": enc.input_ids, "question_mask": enc.question_mask, **videos},
+                         prepare_s=time.perf_counter() - start)
 
     def _generate_kwargs(self, sampling: Sampling, max_new_tokens: int, halt: _Halt) -> dict[str, Any]:
         kwargs: dict[str, Any] = {"max_new_tokens": max_new_tokens, "eos_token_id": self.processor.eos_token_ids,
@@ -230,7 +272,6 @@ class TactileEngine:
         """Deltas as the reply grows, then the finished :class:`Reply`. :class:`DecodeTimeout` when decoding
         outlasts ``timeout_s``; setting ``cancelled`` stops decoding early (a client that went away)."""
         sampling = sampling or Sampling()
-        start = time.perf_counter()
         prepared = prompt if isinstance(prompt, _Prepared) else self.prepare(prompt)
         ready = time.perf_counter()
         halt = _Halt(None if timeout_s is None else time.monotonic() + timeout_s)
@@ -297,7 +338,8 @@ class TactileEngine:
             yield from advance(self.processor.tokenizer.decode(ids, skip_special_tokens=True), True)
         yield from splitter.finish()
         done = time.perf_counter()
-        reply = self._reply(shown, finish, prepared.prompt_tokens, len(ids), start, ready, first_token, done)
+        reply = self._reply(shown, finish, prepared.prompt_tokens, len(ids), prepared.prepare_s, ready, first_token,
+                            done)
         if halt.timed_out:
             raise DecodeTimeout(timeout_s or 0.0, reply)
         yield reply
@@ -321,8 +363,8 @@ class TactileEngine:
         keys = {s.batch_key() for s in samplings}
         if len(prompts) != len(samplings) or len(keys) != 1 or None in keys:
             raise ValueError("complete_batch: one sampling per prompt, all with the same batch_key (not None)")
-        start = time.perf_counter()
         prepared = [p if isinstance(p, _Prepared) else self.prepare(p) for p in prompts]
+        start = time.perf_counter()
         batch = dict(self.processor.collate([p.row for p in prepared], padding_side="left"))
         ready = time.perf_counter()
         wanted = max(self._room(p, s.max_new_tokens) for p, s in zip(prepared, samplings, strict=True))
@@ -345,20 +387,23 @@ class TactileEngine:
             safe, stopped = StopMatcher(s.stop).push(text)
             if stopped:
                 text, finish = safe, "stop"
-            replies.append(self._reply(text, finish, p.prompt_tokens, len(ids), start, ready, None, done))
+            replies.append(self._reply(text, finish, p.prompt_tokens, len(ids), p.prepare_s + ready - start, ready,
+                                       None, done))
         if halt.timed_out:
             raise DecodeTimeout(timeout_s or 0.0, None)
         return replies
 
     @staticmethod
-    def _reply(text: str, finish: str, prompt_tokens: int, completion_tokens: int, start: float, ready: float,
+    def _reply(text: str, finish: str, prompt_tokens: int, completion_tokens: int, prepare_s: float, ready: float,
                first_token: float | None, done: float) -> Reply:
+        """``prepare_s``: seconds the prompt took to get ready (decoding, tokenising, batching), ending at ``ready``,
+        whether it was prepared here or earlier by the server's worker (waiting in the queue is not counted)."""
         reasoning, content = split_channels(text)
         decode_s = done - ready
-        timings = {"prepare_s": round(ready - start, 4), "decode_s": round(decode_s, 4),
-                   "total_s": round(done - start, 4),
+        timings = {"prepare_s": round(prepare_s, 4), "decode_s": round(decode_s, 4),
+                   "total_s": round(prepare_s + decode_s, 4),
                    "tokens_per_s": round(completion_tokens / decode_s, 2) if decode_s > 0 else 0.0}
         if first_token is not None:
-            timings["first_token_s"] = round(first_token - start, 4)
+            timings["first_token_s"] = round(prepare_s + first_token - ready, 4)
         return Reply(text=text.strip(), reasoning=reasoning, content=content, finish_reason=finish,
                      prompt_tokens=prompt_tokens, completion_tokens=completion_tokens, timings=timings)

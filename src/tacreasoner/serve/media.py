@@ -3,7 +3,9 @@
 Videos come as content parts in vLLM's convention, ``{"type": "video_url", "video_url": {"url": …}}``, with the
 URL either ``data:video/<type>;base64,<bytes>`` or ``file:///path`` inside a directory the server allows. Each video
 part stands where it is in the message unless the text already places it with ``<tactile>``: then the number of
-placeholders must equal the number of videos. Every fault is a :class:`RequestError` naming the part.
+placeholders must equal the number of videos. The model answers questions about clips, so a request must carry at
+least one, each of at least :data:`~tacreasoner.serve.engine.MIN_CLIP_FRAMES` frames. Every fault is a
+:class:`RequestError` naming the part.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from urllib.parse import unquote, urlparse
 import numpy as np
 
 from tacreasoner.data.video import VideoError, read_video
-from tacreasoner.serve.engine import Prompt, RequestError
+from tacreasoner.serve.engine import Prompt, RequestError, check_clip_length
 from tacreasoner.tasks.schema import PLACEHOLDER
 
 __all__ = ["MediaLimits", "decode_video_bytes", "messages_to_prompt", "video_data_url"]
@@ -58,13 +60,18 @@ def decode_video_bytes(data: bytes, where: str, limits: MediaLimits) -> np.ndarr
         try:
             frames, _ = read_video(f.name)
         except VideoError as exc:
-            reason = str(exc).split(": ", 1)[-1]
-            raise RequestError(f"{where}: not a readable video ({reason})", param=where, code="invalid_video") \
-                from exc
+            raise RequestError(f"{where}: {_video_fault(exc)}", param=where, code="invalid_video") from exc
     if len(frames) > limits.max_frames:
         raise RequestError(f"{where}: {len(frames)} frames; at most {limits.max_frames} per video",
                            param=where, code="video_too_long")
+    check_clip_length(len(frames), where, where)
     return frames
+
+
+def _video_fault(exc: VideoError) -> str:
+    """The reader's diagnosis without its file name (a temporary file the client never named), said once."""
+    reason = str(exc).split(": ", 1)[-1]
+    return reason if reason.startswith("not a readable video") else f"not a readable video ({reason})"
 
 
 def _data_url_bytes(url: str, where: str, limits: MediaLimits) -> bytes:
@@ -131,8 +138,9 @@ def _check_parts_before_decoding(messages: Sequence[dict[str, Any]]) -> None:
                       if p.get("type") == "text" and isinstance(p.get("text"), str))
         n = sum(p.get("type") == "video_url" for p in parts)
         if written and written != n:
+            missing = "no tactile clip (video_url part)" if n == 0 else f"{n} video part(s)"
             raise RequestError(f"messages[{i}]: the text holds {written} {PLACEHOLDER} placeholder(s) but the "
-                               f"message has {n} video part(s)", param=f"messages[{i}]", code="placeholder_mismatch")
+                               f"message has {missing}", param=f"messages[{i}]", code="placeholder_mismatch")
 
 
 def messages_to_prompt(messages: Sequence[dict[str, Any]], limits: MediaLimits | None = None) -> Prompt:
@@ -148,9 +156,13 @@ def messages_to_prompt(messages: Sequence[dict[str, Any]], limits: MediaLimits |
     written = sum(m["content"].count(PLACEHOLDER) for m in messages
                   if m.get("role") == "user" and isinstance(m.get("content"), str))
     if written and n_videos == 0:  # caught before any decoding: a malformed request costs next to nothing
-        raise RequestError(f"messages: the text holds {written} {PLACEHOLDER} placeholder(s) but no video part was "
-                           f"sent", param="messages", code="placeholder_mismatch")
+        raise RequestError(f"messages: the text holds {written} {PLACEHOLDER} placeholder(s) but no tactile clip was "
+                           f"sent: add one video_url part per {PLACEHOLDER}", param="messages",
+                           code="placeholder_mismatch")
     _check_parts_before_decoding(messages)
+    if n_videos == 0:  # without a clip the model would still reason about a touch it never felt
+        raise RequestError("messages: no tactile clip was sent; this model answers questions about tactile videos: "
+                           "add a video_url part to the user message", param="messages", code="missing_video")
     turns: list[dict[str, str]] = []
     videos: list[np.ndarray] = []
     for i, message in enumerate(messages):

@@ -3,8 +3,9 @@
 ``POST /v1/chat/completions`` takes the chat API's request with tactile videos as ``video_url`` content parts (see
 :mod:`tacreasoner.serve.media`), streamed as server-sent events with ``stream: true``. The reply's ``content`` is the
 answer and ``reasoning_content`` the reasoning (DeepSeek's convention). ``GET /v1/models`` and ``GET /health``
-complete it. Every error is the API's JSON error object: 4xx for the client's faults, 5xx for ours, never a
-traceback (that goes to the server's log with an id the client sees).
+complete it; ``GET /openapi.json`` is the schema (behind the API key, like ``/v1/``, when the server has one).
+Every error is the API's JSON error object: 4xx for the client's faults, 5xx for ours, never a traceback (that goes
+to the server's log with an id the client sees).
 """
 
 from __future__ import annotations
@@ -76,7 +77,12 @@ class ChatRequest(BaseModel):
             raise RequestError("stop: at most 4 stop strings", param="stop")
         if self.n != 1:
             raise RequestError("n: this server returns one choice per request", param="n")
-        return Sampling(max_new_tokens=self.max_completion_tokens or self.max_tokens or 256,
+        for name in ("max_completion_tokens", "max_tokens"):  # 0 is refused like OpenAI does, not read as unset
+            value = getattr(self, name)
+            if value is not None and value < 1:
+                raise RequestError(f"{name} must be at least 1, got {value}", param=name)
+        longest = next((v for v in (self.max_completion_tokens, self.max_tokens) if v is not None), 256)
+        return Sampling(max_new_tokens=longest,
                         temperature=0.0 if self.temperature is None else self.temperature,
                         top_p=1.0 if self.top_p is None else self.top_p, seed=self.seed, stop=tuple(stop))
 
@@ -117,7 +123,7 @@ def create_app(engine: TactileEngine, settings: ServerSettings | None = None) ->
             if not length.isdigit() or int(length) > settings.max_request_bytes:
                 return _error(413, f"the request is larger than {settings.max_request_bytes // 2**20} MiB",
                               code="request_too_large")
-        if settings.api_key and request.url.path.startswith("/v1/"):
+        if settings.api_key and (request.url.path.startswith("/v1/") or request.url.path == app.openapi_url):
             given = request.headers.get("authorization", "")
             if not hmac.compare_digest(given.encode(), f"Bearer {settings.api_key}".encode()):
                 return _error(401, "a valid API key is needed: Authorization: Bearer <key>", code="invalid_api_key")
@@ -148,6 +154,9 @@ def create_app(engine: TactileEngine, settings: ServerSettings | None = None) ->
             body = json.loads(await request.body())
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             return _error(400, f"the body is not JSON ({exc})", code="invalid_json")
+        if not isinstance(body, dict):
+            return _error(400, f"the body must be a JSON object (the chat completion request), got a JSON "
+                               f"{_json_kind(body)}", code="invalid_json")
         try:
             req = ChatRequest.model_validate(body)
         except ValidationError as exc:
@@ -188,8 +197,18 @@ def create_app(engine: TactileEngine, settings: ServerSettings | None = None) ->
 
 
 def _prepare(engine: TactileEngine, messages: list[dict[str, Any]], limits: MediaLimits) -> Any:
-    """Decode the videos and tokenise, in a worker thread (the model's thread never waits on a client's bytes)."""
-    return engine.prepare(messages_to_prompt(messages, limits))
+    """Decode the videos and tokenise, in a worker thread (the model's thread never waits on a client's bytes);
+    the time it took, decoding included, is the reply's ``timings.prepare_s``."""
+    start = time.perf_counter()
+    prepared = engine.prepare(messages_to_prompt(messages, limits))
+    prepared.prepare_s = time.perf_counter() - start
+    return prepared
+
+
+def _json_kind(value: Any) -> str:
+    """What a JSON value is, in JSON's words (never a Python class name)."""
+    kinds = ((list, "array"), (str, "string"), (bool, "boolean"), (int | float, "number"), (type(None), "null"))
+    return next((name for kind, name in kinds if isinstance(value, kind)), "value")
 
 
 def _chunk(ident: str, model: str, delta: dict[str, Any], finish: str | None = None,
