@@ -29,8 +29,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, publish, stamp
 from tacreasoner.data.readers import default_physiclear_dir, read_physiclear
 from tacreasoner.data.sampling import resize_keep_aspect
-from tacreasoner.data.video import read_video
 from tacreasoner.sim.generate import generate_dataset, read_manifest
+from tacreasoner.video_io import read_video
 
 RESIZE = (64, 64)
 BUSY_LOOP = ("import torch\ntorch.set_num_threads(1)\na = torch.randn(1000, 1000)\n"

@@ -25,7 +25,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, publish, stamp
-from tacreasoner.evaluate.stats import wilson_interval
+from tacreasoner.intervals import wilson_interval
 from tacreasoner.train.pretrain_llm import KNOWLEDGE_PREDICTIONS_FILE, knowledge_check
 
 KIND_TITLES = {

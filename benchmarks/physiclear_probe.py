@@ -54,7 +54,7 @@ def main() -> None:
 
     from tacreasoner.data.readers import read_physiclear
     from tacreasoner.evaluate.probe import LinearProbe
-    from tacreasoner.evaluate.stats import wilson_interval
+    from tacreasoner.intervals import wilson_interval
     from tacreasoner.model.appearance import AppearanceEncoder
     from tacreasoner.model.video_processing import VideoProcessingConfig, preprocess_video
 

@@ -30,7 +30,7 @@ def row_table(path: Path) -> tuple[dict, int]:
     path, _, candidate = str(path).partition("#")
     path = Path(path)
     if path.suffix == ".json" and candidate:  # benchmarks/encoder_candidates.json#<candidate>: its val probe
-        from tacreasoner.evaluate.stats import wilson_interval
+        from tacreasoner.intervals import wilson_interval
 
         found = json.loads(path.read_text())["results"][candidate]
         n = found["val_n"]

@@ -23,9 +23,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, publish, stamp
 from tacreasoner.data.cues import FrameSignals, clip_cues, detect_phases, frame_signals
-from tacreasoner.data.video import read_video
 from tacreasoner.evaluate.probe import cross_validate_probe
 from tacreasoner.sim.generate import generate_dataset, read_manifest
+from tacreasoner.video_io import read_video
 
 PHASE_CLASSES = ["no_contact", "press", "hold", "slide", "rotate", "release"]
 TASKS = [

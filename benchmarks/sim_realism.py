@@ -18,9 +18,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import RESULTS, header_md, md_table, publish, stamp
 from tacreasoner.data.cues import frame_signals
-from tacreasoner.data.video import read_video
 from tacreasoner.sim.generate import action_for_repeat, simulate_clip
 from tacreasoner.sim.materials import build_object_set
+from tacreasoner.video_io import read_video
 
 DEFAULT_REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "physiclear"
 

@@ -18,7 +18,6 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, publish, stamp
-from tacreasoner.data.video import write_video
 from tacreasoner.sim.generate import (
     action_for_repeat,
     generate_dataset,
@@ -27,6 +26,7 @@ from tacreasoner.sim.generate import (
 )
 from tacreasoner.sim.materials import catalogue
 from tacreasoner.sim.sensors import get_sensor
+from tacreasoner.video_io import write_video
 
 
 def _throughput(backend: str, n_clips: int, encode: bool, tmp: Path) -> dict:

@@ -23,7 +23,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, publish, stamp
 from smollm2_summary import _lenient_tsa, _records
 from tacreasoner.evaluate.report import compare_runs, summarize
-from tacreasoner.evaluate.stats import wilson_interval
+from tacreasoner.intervals import wilson_interval
 
 CANDIDATES = {
     "plain_s500": "plain answers, 500 steps",

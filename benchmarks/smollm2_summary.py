@@ -21,7 +21,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, publish, stamp
 from tacreasoner.evaluate.report import Report, compare_runs, evaluate, load_scored, summarize
-from tacreasoner.evaluate.stats import wilson_interval
+from tacreasoner.intervals import wilson_interval
 from tacreasoner.tasks.bench import load_bench
 
 ABLATIONS = {

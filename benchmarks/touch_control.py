@@ -43,7 +43,7 @@ def touch_table(records: Mapping[str, Sequence[dict]]) -> dict[str, Any]:
 
     The records of all modes must cover the same items (the control only means something on paired items)."""
     from tacreasoner.evaluate.report import compare_runs, summarize
-    from tacreasoner.evaluate.stats import wilson_interval
+    from tacreasoner.intervals import wilson_interval
 
     missing = [m for m in MODES if m not in records]
     if missing:

@@ -70,7 +70,7 @@ def main() -> None:
     import torch
     from transformers import AutoModelForCausalLM, AutoTokenizer
 
-    from tacreasoner.evaluate.stats import wilson_interval
+    from tacreasoner.intervals import wilson_interval
     from tacreasoner.jsonl import iter_jsonl
     from tacreasoner.tasks.bench import load_bench
     from tacreasoner.tasks.scoring import score_item

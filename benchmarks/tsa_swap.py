@@ -55,7 +55,7 @@ def template_prior(items) -> float:
 def summary(items, twins, scored: dict[str, dict[str, dict]]) -> dict:
     """Per mode: as built, swapped, both right, same answer in both orders, answer follows the objects, and right
     among those that follow (with Wilson intervals)."""
-    from tacreasoner.evaluate.stats import wilson_interval
+    from tacreasoner.intervals import wilson_interval
 
     n, out = len(items), {}
     for mode in MODES:

@@ -112,7 +112,7 @@ def main() -> None:
     from peft import LoraConfig, get_peft_model
     from transformers import AutoModelForCausalLM, AutoTokenizer
 
-    from tacreasoner.evaluate.stats import wilson_interval
+    from tacreasoner.intervals import wilson_interval
     from tacreasoner.jsonl import iter_jsonl
     from tacreasoner.knowledge.corpus import build_corpus
     from tacreasoner.tasks.bench import load_bench

@@ -2,7 +2,8 @@
 
 Builds an untrained tiny model around a freshly trained BPE tokenizer, asks a question about two
 simulated clips, streams the (meaningless, untrained) reply, and saves/reloads the model through the
-Hugging Face Auto classes. Train a real one with ``tacreasoner quickstart``.
+Hugging Face Auto classes (importing ``tacreasoner.model`` registers it with them). Train a real one with
+``tacreasoner quickstart``.
 
     python examples/model_tour.py [--out runs/model_tour]
 """
@@ -16,12 +17,12 @@ from pathlib import Path
 import torch
 from transformers import AutoModelForCausalLM, AutoProcessor, TextStreamer
 
-import tacreasoner  # noqa: F401  (registers TacReasoner with the Auto classes)
 from tacreasoner.data.readers import read_sim_dataset
 from tacreasoner.model import TacReasonerConfig, TacReasonerForCausalLM, TacReasonerProcessor, TactileEncoderConfig
 from tacreasoner.model.tiny import tiny_qwen2_config
-from tacreasoner.model.tokenizer import tokenizer_training_texts, train_tokenizer
+from tacreasoner.model.tokenizer import train_tokenizer
 from tacreasoner.sim.generate import generate_dataset
+from tacreasoner.train.pretrain_llm import tokenizer_training_texts
 
 
 def main() -> None:

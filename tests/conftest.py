@@ -41,7 +41,7 @@ def write_physiclear_folder(root: Path, splits: dict[str, int], clips_per_object
 
     import numpy as np
 
-    from tacreasoner.data.video import write_video
+    from tacreasoner.video_io import write_video
 
     rng = np.random.default_rng(seed)
     (root / "videos").mkdir(parents=True, exist_ok=True)

@@ -1,8 +1,7 @@
-"""TacReasoner: tactile-language reasoning with a dynamic-aware tactile encoder."""
+"""TacReasoner: tactile-language reasoning with a dynamic-aware tactile encoder.
 
-from tacreasoner._hf_registration import install as _install_hf_registration
+Importing the package imports nothing else, so ``tacreasoner.sim`` or the CLI stay free of torch. The
+model registers itself with transformers' Auto classes when ``tacreasoner.model`` is imported.
+"""
 
 __version__ = "0.1.0"
-
-# AutoConfig / AutoModelForCausalLM / AutoProcessor learn about TacReasoner without importing torch here.
-_install_hf_registration()

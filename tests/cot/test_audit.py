@@ -11,8 +11,8 @@ from cot_samples import good_sample, make_item, make_sample
 
 from tacreasoner.cot.audit import COLUMNS, export_review, import_review, stratified_sample
 from tacreasoner.cot.filter import filter_samples
-from tacreasoner.data.video import write_video
 from tacreasoner.tasks.schema import VideoRef
+from tacreasoner.video_io import write_video
 
 
 def _tiny_clip(path, n=12):

@@ -19,7 +19,7 @@ from tacreasoner.data.cache import (
     set_memory_limit,
 )
 from tacreasoner.data.clip import TactileClip
-from tacreasoner.data.video import write_video
+from tacreasoner.video_io import write_video
 
 
 @pytest.fixture(autouse=True)

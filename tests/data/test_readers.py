@@ -24,7 +24,7 @@ from tacreasoner.data.readers import (
     read_vtv150k,
 )
 from tacreasoner.data.splits import check_no_leakage
-from tacreasoner.data.video import VideoError, write_video
+from tacreasoner.video_io import VideoError, write_video
 
 PHYSICLEAR = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "physiclear"
 

@@ -207,7 +207,7 @@ def test_detect_contact_phases_without_contact() -> None:
 
 @pytest.mark.skipif(not (PHYSICLEAR / "videos" / "apple_1.mov").is_file(), reason="PhysiCLeAR not present")
 def test_detect_contact_phases_on_a_real_physiclear_clip() -> None:
-    from tacreasoner.data.video import read_video
+    from tacreasoner.video_io import read_video
 
     frames, _ = read_video(PHYSICLEAR / "videos" / "apple_1.mov")
     phases = list(detect_contact_phases(frames, action="rotate"))

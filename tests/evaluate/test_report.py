@@ -17,7 +17,7 @@ from tacreasoner.evaluate.report import (
     report_from_scored,
     write_comparison,
 )
-from tacreasoner.evaluate.stats import wilson_interval
+from tacreasoner.intervals import wilson_interval
 from tacreasoner.tasks.schema import CONTACT_STATES, QAItem, VideoRef
 
 HARD = ("highly deformable", "moderately deformable", "extremely hard")

@@ -11,7 +11,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy.stats import binomtest
 
-from tacreasoner.evaluate.stats import chance_level, mcnemar_exact, mean_std, paper_average, wilson_interval
+from tacreasoner.evaluate.stats import chance_level, mcnemar_exact, mean_std, paper_average
+from tacreasoner.intervals import wilson_interval
 
 
 def test_wilson_known_values() -> None:

@@ -341,7 +341,8 @@ def _records(task: str, correct: list[bool], prefix: str = "") -> list[dict]:
 
 
 def test_touch_table_from_scored_records(touch_control: Any) -> None:
-    from tacreasoner.evaluate.stats import mcnemar_exact, wilson_interval
+    from tacreasoner.evaluate.stats import mcnemar_exact
+    from tacreasoner.intervals import wilson_interval
 
     real = [True] * 18 + [False] * 2
     blank = [True] * 5 + [False] * 15

@@ -472,10 +472,10 @@ def test_wraps_a_causal_lm_saved_to_disk_without_changing_its_text_path(tmp_path
     assert model.config.new_token_ids == list(range(280, 300))
 
 
-def test_auto_classes_know_tacreasoner_after_import_tacreasoner(tmp_path) -> None:
+def test_auto_classes_know_tacreasoner_after_import_tacreasoner_model(tmp_path) -> None:
     tiny_model().save_pretrained(tmp_path)
-    for order in ("import tacreasoner\nfrom transformers import AutoModelForCausalLM, AutoConfig",
-                  "from transformers import AutoModelForCausalLM, AutoConfig\nimport tacreasoner"):
+    for order in ("import tacreasoner.model\nfrom transformers import AutoModelForCausalLM, AutoConfig",
+                  "from transformers import AutoModelForCausalLM, AutoConfig\nimport tacreasoner.model"):
         code = (f"{order}\nm = AutoModelForCausalLM.from_pretrained({str(tmp_path)!r})\n"
                 f"c = AutoConfig.from_pretrained({str(tmp_path)!r})\n"
                 "print(type(m).__name__, type(c).__name__)")
@@ -485,7 +485,8 @@ def test_auto_classes_know_tacreasoner_after_import_tacreasoner(tmp_path) -> Non
 
 
 def test_importing_tacreasoner_does_not_import_torch() -> None:
-    code = "import sys, tacreasoner, tacreasoner.cli\nprint('torch' in sys.modules, 'transformers' in sys.modules)"
+    code = ("import sys, tacreasoner, tacreasoner.sim, tacreasoner.cli\n"
+            "print('torch' in sys.modules, 'transformers' in sys.modules)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert done.stdout.split() == ["False", "False"], done.stderr
 

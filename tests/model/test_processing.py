@@ -179,7 +179,7 @@ def test_answer_generates_streams_and_parses(processor) -> None:
 def test_auto_processor_loads_from_a_model_directory(processor, tmp_path) -> None:
     _model_for(processor).save_pretrained(tmp_path)
     processor.save_pretrained(tmp_path)
-    code = ("import tacreasoner\nfrom transformers import AutoProcessor\n"
+    code = ("import tacreasoner.model\nfrom transformers import AutoProcessor\n"
             f"p = AutoProcessor.from_pretrained({str(tmp_path)!r})\nprint(type(p).__name__, p.tokens_per_video)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr[-2000:]

@@ -15,9 +15,7 @@ from tacreasoner.model.tokenizer import (
     REASONING_TAGS,
     TACTILE_PAD,
     prepare_tokenizer,
-    tokenizer_training_texts,
     train_tokenizer,
-    wording_texts,
 )
 
 TEXTS = [
@@ -129,11 +127,3 @@ def test_train_tokenizer_rejects_bad_input() -> None:
         train_tokenizer([], vocab_size=400)
     with pytest.raises(ValueError, match="#1 is int"):
         train_tokenizer(["a", 3], vocab_size=400)  # type: ignore[list-item]
-
-
-def test_training_texts_hold_corpus_and_package_wording() -> None:
-    texts = tokenizer_training_texts()
-    wording = wording_texts()
-    assert len(wording) >= 10 and all(w in texts for w in wording)
-    assert any("tangerine" in t for t in texts)
-    assert any(t.startswith("<|im_start|>user\n") for t in texts)

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tacreasoner.data.video import read_video
 from tacreasoner.sim.generate import generate_dataset, read_manifest
 from tacreasoner.sim.protocol import PHASES
+from tacreasoner.video_io import read_video
 
 
 def _files(root: Path) -> dict[str, bytes]:

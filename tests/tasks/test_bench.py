@@ -116,8 +116,8 @@ def test_vtv150k_layout_builds_a_benchmark(tmp_path: Path) -> None:
     """Flat ``<object>_<k>.mp4`` videos + a rank table → a benchmark; unranked objects are reported."""
     import numpy as np
 
-    from tacreasoner.data.video import write_video
     from tacreasoner.tasks.formats import read_vtv_json, write_vtv_json
+    from tacreasoner.video_io import write_video
 
     videos = tmp_path / "videos"
     videos.mkdir()

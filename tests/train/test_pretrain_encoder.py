@@ -112,7 +112,7 @@ def test_preprocessing_in_worker_processes_matches(tmp_path: Path) -> None:
 
 
 def test_cli(tmp_path: Path) -> None:
-    from tacreasoner.data.video import write_video
+    from tacreasoner.video_io import write_video
 
     videos = tmp_path / "videos"
     videos.mkdir()
@@ -149,7 +149,7 @@ def test_cli_defaults_are_the_library_defaults() -> None:
 
 def labelled_folder(root: Path) -> Path:
     """A PhysiCLeAR-shaped folder: one object per split (train, val, test, unlabelled), two clips each."""
-    from tacreasoner.data.video import write_video
+    from tacreasoner.video_io import write_video
 
     (root / "videos").mkdir(parents=True)
     objects = {}

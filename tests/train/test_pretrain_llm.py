@@ -9,7 +9,8 @@ import pytest
 import torch
 
 from tacreasoner.knowledge import build_corpus
-from tacreasoner.train.pretrain_llm import evaluate_knowledge, pretrain_llm
+from tacreasoner.model.tokenizer import wording_texts
+from tacreasoner.train.pretrain_llm import evaluate_knowledge, pretrain_llm, tokenizer_training_texts
 
 MODEL = {"hidden_size": 32, "num_hidden_layers": 1, "num_attention_heads": 2, "num_key_value_heads": 1,
          "intermediate_size": 64}
@@ -154,3 +155,11 @@ def test_bf16_is_chosen_only_where_the_cpu_has_native_bf16() -> None:
     assert bf16_supported("processor: 0\nflags\t\t: fpu amx_bf16 amx_tile\n")
     assert bf16_supported("processor\t: 0\nFeatures\t: fp asimd sve bf16 i8mm\n")
     assert not bf16_supported("processor\t: 0\nFeatures\t: fp asimd\n")
+
+
+def test_training_texts_hold_corpus_and_package_wording() -> None:
+    texts = tokenizer_training_texts()
+    wording = wording_texts()
+    assert len(wording) >= 10 and all(w in texts for w in wording)
+    assert any("tangerine" in t for t in texts)
+    assert any(t.startswith("<|im_start|>user\n") for t in texts)

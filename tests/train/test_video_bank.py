@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import torch
 
-from tacreasoner.data.video import write_video
 from tacreasoner.model.video_processing import VideoProcessingConfig
 from tacreasoner.train.data import MIN_CLIPS_PER_POOL, VideoBank
+from tacreasoner.video_io import write_video
 
 CONFIG = VideoProcessingConfig(num_frames=4, image_size=(16, 16))
 

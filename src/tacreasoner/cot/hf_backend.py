@@ -12,8 +12,8 @@ import asyncio
 import threading
 from typing import Any
 
-from tacreasoner.cot.backends import TeacherConfig, UsageMeter
 from tacreasoner.cot.schema import CoTJob, Prompt, TeacherReply
+from tacreasoner.cot.teacher import TeacherConfig, UsageMeter
 
 _LOAD_OPTIONS = ("device", "dtype", "seed", "trust_remote_code")
 """``extra`` keys read at load time; every other ``extra`` key is passed to ``model.generate``."""

@@ -18,8 +18,8 @@ import random
 import time
 from typing import Any
 
-from tacreasoner.cot.backends import TeacherConfig, TeacherError, UsageMeter, cost_of
 from tacreasoner.cot.schema import CoTJob, Prompt, TeacherReply
+from tacreasoner.cot.teacher import TeacherConfig, TeacherError, UsageMeter, cost_of
 
 _RESERVED = ("model", "messages", "stream", "n")
 _RETRYABLE_4XX = (408, 409, 429)

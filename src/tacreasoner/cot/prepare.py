@@ -399,7 +399,7 @@ def _check_tasks(tasks: Iterable[str] | None) -> set[str] | None:
 
 def _plan_clips(items: Sequence[QAItem], info: dict, bench_dir: Path) -> dict[str, _ClipWork]:
     """One unit of work per clip: its file, phases (ground truth or None), fps, action and segments."""
-    from tacreasoner.data.video import probe_video
+    from tacreasoner.video_io import probe_video
 
     source = info.get("source", "")
     root = Path(info.get("video_root") or info.get("data") or bench_dir)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tacreasoner.data.video import read_video
+from tacreasoner.video_io import read_video
 
 __all__ = [
     "CacheInfo",

@@ -37,7 +37,7 @@ import av
 import numpy as np
 
 from tacreasoner.data.clip import TactileClip
-from tacreasoner.data.video import VideoError, VideoInfo, probe_video
+from tacreasoner.video_io import VideoError, VideoInfo, probe_video
 
 __all__ = [
     "IMAGE_SUFFIXES",

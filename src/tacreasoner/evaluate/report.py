@@ -33,10 +33,11 @@ from tacreasoner.evaluate.stats import (
     mcnemar_exact,
     mean_std,
     paper_average,
-    wilson_interval,
 )
+from tacreasoner.intervals import wilson_interval
 from tacreasoner.jsonl import iter_jsonl, write_jsonl
 from tacreasoner.tasks.consistency import ObjectVocabulary, check_reasoning, object_vocabulary
+from tacreasoner.tasks.everyday_objects import everyday_object_names
 from tacreasoner.tasks.extract import MODES, Mode
 from tacreasoner.tasks.schema import CONTACT_STATES, TASKS, QAItem
 from tacreasoner.tasks.scoring import check_gold, score_predictions
@@ -383,11 +384,10 @@ def _run_names(paths: Sequence[Path]) -> list[str]:
 
 @lru_cache(maxsize=1)
 def object_names() -> tuple[frozenset[str], ...]:
-    """Known objects for the hallucination check: the simulator catalogue plus the commonsense corpus's everyday
-    objects (``knowledge/objects.yaml``), the names a model trained on that corpus is most likely to bring in."""
-    from tacreasoner.knowledge.facts import knowledge_objects
-
-    return object_vocabulary(o.name for o in knowledge_objects() if o.source != "catalogue")
+    """Known objects for the hallucination check: the simulator catalogue plus the everyday objects of
+    ``tasks/everyday_objects.yaml``, which the commonsense corpus teaches (a model trained on it is most likely
+    to bring them in)."""
+    return object_vocabulary(everyday_object_names())
 
 
 def evaluate(items: Sequence[QAItem], prediction_paths: Sequence[str | Path], mode: Mode | str = "strict",

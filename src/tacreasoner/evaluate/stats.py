@@ -1,9 +1,8 @@
-"""Statistics for benchmark reports: binomial intervals, paired tests, seed spread, chance levels.
+"""Statistics for benchmark reports: paired tests, seed spread, chance levels.
 
 Benchmarks here are a few hundred items per task, so a point accuracy alone overstates what is known.
-Reports carry a Wilson interval (good coverage at small n and near 0/1, unlike the normal
-approximation), the spread over training seeds, and an exact McNemar test when two models answered
-the same items.
+Reports carry a Wilson interval (``tacreasoner.intervals``, shared with training-time checks), the spread
+over training seeds, and an exact McNemar test when two models answered the same items.
 """
 
 from __future__ import annotations
@@ -14,27 +13,7 @@ from dataclasses import dataclass
 
 from scipy.stats import binom
 
-__all__ = ["McNemarResult", "chance_level", "mcnemar_exact", "mean_std", "paper_average", "wilson_interval"]
-
-
-def wilson_interval(k: float, n: int, z: float = 1.96) -> tuple[float, float]:
-    """Wilson score interval for a binomial proportion ``k / n`` (95% for the default ``z``).
-
-    ``k`` may be fractional (a mean count over seeds). ``n == 0`` carries no information: (0, 1).
-    """
-    if n < 0 or k < 0 or k > n:
-        raise ValueError(f"need 0 <= k <= n, got k={k}, n={n}")
-    if n == 0:
-        return 0.0, 1.0
-    p = k / n
-    z2 = z * z
-    denom = 1.0 + z2 / n
-    centre = (p + z2 / (2 * n)) / denom
-    half = z * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n)) / denom
-    # At k = 0 (k = n) the bound is exactly 0 (1); say so rather than return rounding noise.
-    lo = 0.0 if k == 0 else max(0.0, centre - half)
-    hi = 1.0 if k == n else min(1.0, centre + half)
-    return lo, hi
+__all__ = ["McNemarResult", "chance_level", "mcnemar_exact", "mean_std", "paper_average"]
 
 
 @dataclass(frozen=True)

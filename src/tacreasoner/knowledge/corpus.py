@@ -11,7 +11,7 @@ from scratch knows nothing, so it reads this corpus before any tactile training.
   level before comparing is what lets a small transformer compose facts it learnt separately.
 
 It never holds clips, benchmark questions (``tasks/templates``) or anything derived from clip labels:
-object facts come from the simulator catalogue's material parameters and ``objects.yaml``.
+object facts come from the simulator catalogue's material parameters and ``tasks/everyday_objects.yaml``.
 
 **Holdout.** A fraction of object pairs and of scenarios is held out: the corpus still states every
 object's and every scenario's own facts, but no document or dialogue names both objects of a held-out

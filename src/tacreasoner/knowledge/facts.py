@@ -2,8 +2,9 @@
 
 Objects are the simulator's 15 catalogue objects (ranks from ``derive_labels`` of their *material
 parameters*: what the object is typically like, never a clip's label) plus the everyday objects of
-``objects.yaml``. Every object has a rank for each attribute of both vocabularies; a level is stated
-with the vocabulary's own phrase (``tasks.vocab``), so the corpus speaks the benchmark's answer language.
+``tasks/everyday_objects.yaml`` (read by ``tasks.everyday_objects``, which the evaluation uses too). Every
+object has a rank for each attribute of both vocabularies; a level is stated with the vocabulary's own
+phrase (``tasks.vocab``), so the corpus speaks the benchmark's answer language.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
+from tacreasoner.tasks.everyday_objects import EVERYDAY_OBJECTS_FILE, everyday_objects
 from tacreasoner.tasks.vocab import PHYSICLEAR, VTV150K
 from tacreasoner.yamlfile import line_of, read_yaml
 
@@ -22,7 +24,7 @@ __all__ = ["ATTRIBUTES", "VOCABULARIES_OF", "KnowledgeObject", "Wording", "knowl
            "level_state", "load_wording"]
 
 HERE = Path(__file__).resolve().parent
-OBJECTS_FILE = HERE / "objects.yaml"
+OBJECTS_FILE = EVERYDAY_OBJECTS_FILE
 WORDING_FILE = HERE / "wording.yaml"
 
 ATTRIBUTES = ("hardness", "protrusion", "elasticity", "friction", "roughness", "bumpiness")
@@ -31,8 +33,6 @@ VOCABULARIES_OF: dict[str, tuple[str, ...]] = {
     "friction": ("vtv150k",), "roughness": ("physiclear",), "bumpiness": ("physiclear",),
 }
 """Which vocabularies phrase each attribute (hardness is in both, with different phrases)."""
-_RANKED = ("hardness", "protrusion", "elasticity", "friction", "roughness")
-"""Ranks an objects.yaml entry gives; bumpiness copies protrusion (the simulator derives both from bump height)."""
 _HAS_WORDS = ("no", "moderate", "strong", "slight", "small", "big")
 _ARTICLE = re.compile(r"^(a|an|the)\s+", re.IGNORECASE)
 
@@ -62,7 +62,7 @@ class KnowledgeObject:
     ranks: Mapping[str, int]
     """attribute → 0/1/2 for every attribute in ``ATTRIBUTES``."""
     source: str
-    """``catalogue`` (a simulator object) or ``world`` (objects.yaml)."""
+    """``catalogue`` (a simulator object) or ``world`` (``tasks/everyday_objects.yaml``)."""
     sim_name: str | None = None
 
     @property
@@ -91,32 +91,13 @@ def _catalogue_objects() -> list[KnowledgeObject]:
 
 
 def _world_objects(path: Path) -> list[KnowledgeObject]:
-    data, lines = read_yaml(path)
-    if not isinstance(data, dict) or not isinstance(data.get("objects"), list) or set(data) != {"objects"}:
-        raise ValueError(f"{path}: top level must be a mapping with only an 'objects' list")
-    out = []
-    for i, entry in enumerate(data["objects"]):
-        where = f"{path}:{line_of(lines, ('objects', i))}"
-        if not isinstance(entry, dict) or set(entry) != {"name", "material", "ranks"}:
-            raise ValueError(f"{where}: each object needs exactly the fields name, material and ranks")
-        for field in ("name", "material"):
-            if not isinstance(entry[field], str) or not entry[field].strip():
-                raise ValueError(f"{where}: field {field!r} must be a non-empty string")
-        if not _ARTICLE.match(entry["name"]):
-            raise ValueError(f"{where}: name {entry['name']!r} must start with its article (a/an/the)")
-        ranks = entry["ranks"]
-        if not isinstance(ranks, dict) or set(ranks) != set(_RANKED):
-            raise ValueError(f"{where}: ranks must give exactly {', '.join(_RANKED)}")
-        for a, r in ranks.items():
-            if isinstance(r, bool) or r not in (0, 1, 2):
-                raise ValueError(f"{where}: rank for {a!r} must be 0, 1 or 2, got {r!r}")
-        out.append(KnowledgeObject(entry["name"].strip(), entry["material"].strip(),
-                                   {**ranks, "bumpiness": ranks["protrusion"]}, "world"))
-    return out
+    return [KnowledgeObject(o.name, o.material, {**o.ranks, "bumpiness": o.ranks["protrusion"]}, "world")
+            for o in everyday_objects(path)]
 
 
 def knowledge_objects(path: str | Path | None = None) -> tuple[KnowledgeObject, ...]:
-    """The catalogue objects, then the everyday ones (``objects.yaml`` or ``path``); names are checked unique."""
+    """The catalogue objects, then the everyday ones (``tasks/everyday_objects.yaml`` or ``path``); names are
+    checked unique."""
     objects = [*_catalogue_objects(), *_world_objects(OBJECTS_FILE if path is None else Path(path))]
     bares = [o.bare for o in objects]
     for i, a in enumerate(bares):

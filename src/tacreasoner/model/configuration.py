@@ -7,7 +7,6 @@ from typing import Any, ClassVar
 import transformers
 from transformers import AutoConfig, PreTrainedConfig
 
-from tacreasoner._hf_registration import register_loaded
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 
 MIN_TRANSFORMERS = "5.20"
@@ -51,8 +50,3 @@ class TacReasonerConfig(PreTrainedConfig):
     @property
     def text_hidden_size(self) -> int:
         return int(self.text_config.hidden_size)
-
-
-# This module imports transformers' config machinery, which may fire the import hook of
-# tacreasoner._hf_registration before the class above exists; register now that it does.
-register_loaded()

@@ -1,9 +1,10 @@
 """The tiny LLM's tokenizer: byte-level BPE trained on the project's own text, ChatML chat template.
 
 No pretrained tokenizer can be downloaded here, so the tiny default trains one (``train_tokenizer``) on
-the commonsense corpus plus the package's question, reasoning and prompt wording
-(``tokenizer_training_texts``): the words the model will read and write become single tokens, which
-keeps sequences short on a CPU. The special tokens and the template follow Qwen2.5 conventions, so the
+the commonsense corpus plus the package's question, reasoning and prompt wording (``wording_texts``;
+``train.pretrain_llm.tokenizer_training_texts`` puts the two together, since the corpus belongs to the
+tiny LLM's pre-training): the words the model will read and write become single tokens, which keeps
+sequences short on a CPU. The special tokens and the template follow Qwen2.5 conventions, so the
 same downstream code works with a real Qwen2.5 tokenizer once ``prepare_tokenizer`` has added the
 project's own tokens to it.
 
@@ -18,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["CHAT_TEMPLATE", "END_OF_TEXT", "IM_END", "IM_START", "REASONING_TAGS", "TACTILE_PAD",
-           "prepare_tokenizer", "tokenizer_training_texts", "train_tokenizer", "wording_texts"]
+           "prepare_tokenizer", "train_tokenizer", "wording_texts"]
 
 TACTILE_PAD = "<|tactile_pad|>"
 """One tactile embedding slot: the processor expands each ``<tactile>`` placeholder to N of these."""
@@ -158,15 +159,3 @@ def wording_texts() -> list[str]:
             raise FileNotFoundError(f"{_PACKAGE / pattern}: package wording files missing (broken install?)")
         texts += [p.read_text(encoding="utf-8") for p in paths]
     return texts
-
-
-def tokenizer_training_texts(corpus: Any | None = None) -> list[str]:
-    """The texts the BPE merges are learnt from: the commonsense corpus + the package's wording files.
-
-    ``corpus`` defaults to ``build_corpus(seed=0)``. Dialogues enter as rendered chat text, so ChatML
-    markup and the reasoning layout tokenise as they will in training.
-    """
-    from tacreasoner.knowledge.corpus import build_corpus, chatml
-
-    corpus = build_corpus(seed=0) if corpus is None else corpus
-    return [*corpus.documents, *(chatml(d) for d in corpus.dialogues), *wording_texts()]

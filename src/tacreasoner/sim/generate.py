@@ -16,13 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from tacreasoner.data.video import write_video
 from tacreasoner.jsonl import iter_jsonl
 from tacreasoner.sim.materials import Material, build_object_set, derive_labels
 from tacreasoner.sim.mechanics import ContactTrajectory, simulate_contact
 from tacreasoner.sim.protocol import ACTIONS, make_protocol
 from tacreasoner.sim.render import RenderScene, render_frames
 from tacreasoner.sim.sensors import SensorStyle, get_sensor
+from tacreasoner.video_io import write_video
 
 GENERATOR_VERSION = "dyntac-sim-1"
 MANIFEST = "manifest.jsonl"

@@ -14,11 +14,11 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from tacreasoner.data.video import read_video
 from tacreasoner.sim.generate import Clip, clip_seed, read_manifest, simulate_clip
 from tacreasoner.sim.materials import Material, catalogue, derive_labels, get_material
 from tacreasoner.sim.protocol import ACTIONS
 from tacreasoner.sim.sensors import SensorStyle, get_sensor
+from tacreasoner.video_io import read_video
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

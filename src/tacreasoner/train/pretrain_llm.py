@@ -28,7 +28,7 @@ from typing import Any
 import torch
 
 from tacreasoner.knowledge.corpus import EVAL_KINDS, Corpus, EvalQuestion, build_corpus, chatml
-from tacreasoner.model.tokenizer import END_OF_TEXT, IM_END, tokenizer_training_texts, train_tokenizer
+from tacreasoner.model.tokenizer import END_OF_TEXT, IM_END, train_tokenizer, wording_texts
 from tacreasoner.progress import ProgressBar
 from tacreasoner.train.state import (
     cosine_with_warmup,
@@ -40,7 +40,7 @@ from tacreasoner.train.state import (
 )
 from tacreasoner.train.threads import free_threads
 
-__all__ = ["PretrainSettings", "evaluate_knowledge", "knowledge_check", "pretrain_llm"]
+__all__ = ["PretrainSettings", "evaluate_knowledge", "knowledge_check", "pretrain_llm", "tokenizer_training_texts"]
 
 IGNORE = -100
 TOKENIZER_DIR = "tokenizer"
@@ -251,6 +251,17 @@ def _unique_weights(model: torch.nn.Module) -> dict[str, torch.Tensor]:
     return out
 
 
+def tokenizer_training_texts(corpus: Corpus | None = None) -> list[str]:
+    """The texts the tiny LLM's BPE merges are learnt from: the commonsense corpus + the package's wording files.
+
+    ``corpus`` defaults to ``build_corpus(seed=0)``. Dialogues enter as rendered chat text, so ChatML
+    markup and the reasoning layout tokenise as they will in training. Here rather than in
+    ``model.tokenizer`` because the corpus (``knowledge``) belongs to this pre-training, not to the model.
+    """
+    corpus = build_corpus(seed=0) if corpus is None else corpus
+    return [*corpus.documents, *(chatml(d) for d in corpus.dialogues), *wording_texts()]
+
+
 def _load_tokenizer_or_train(out: Path, corpus: Corpus, vocab_size: int, resume: bool) -> Any:
     from transformers import AutoTokenizer
 
@@ -444,7 +455,7 @@ def evaluate_knowledge(model_dir: str | Path, questions: Sequence[EvalQuestion |
     """
     from transformers import AutoModelForCausalLM, AutoTokenizer
 
-    from tacreasoner.evaluate.stats import wilson_interval
+    from tacreasoner.intervals import wilson_interval
     from tacreasoner.tasks.extract import extract_answer
 
     items = [_as_question(q) for q in questions]

@@ -1,4 +1,4 @@
-"""Tests for tacreasoner.data.video: round trips, determinism, and clear errors on bad input."""
+"""Tests for tacreasoner.video_io: round trips, determinism, and clear errors on bad input."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import av
 import numpy as np
 import pytest
 
-from tacreasoner.data.video import VideoError, VideoInfo, probe_video, read_video, write_video
+from tacreasoner.video_io import VideoError, VideoInfo, probe_video, read_video, write_video
 
 PHYSICLEAR = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "physiclear" / "videos"
 

@@ -1,5 +1,8 @@
 """Video I/O for tactile clips (GelSight-style RGB videos) on top of PyAV.
 
+A leaf at the package root (it needs only PyAV and numpy): the simulator writes clips with it and the data
+readers, the cache, TouchCoT and the server read them, and none of those parts has to import another for it.
+
 Design choices:
 
 * Every FFmpeg failure surfaces as :class:`VideoError` (a ``ValueError``) naming the file, so callers
