@@ -15,14 +15,12 @@ import tempfile
 from pathlib import Path
 
 import torch
-from transformers import AutoModelForCausalLM, AutoProcessor, TextStreamer
+from transformers import AutoModelForCausalLM, AutoProcessor, Qwen2Config, TextStreamer
 
 from tacreasoner.data.readers import read_sim_dataset
 from tacreasoner.model import TacReasonerConfig, TacReasonerForCausalLM, TacReasonerProcessor, TactileEncoderConfig
-from tacreasoner.model.tiny import tiny_qwen2_config
-from tacreasoner.model.tokenizer import train_tokenizer
+from tacreasoner.model.tokenizer import train_tokenizer, wording_texts
 from tacreasoner.sim.generate import generate_dataset
-from tacreasoner.train.pretrain_llm import tokenizer_training_texts
 
 
 def main() -> None:
@@ -37,11 +35,14 @@ def main() -> None:
     clips = list(read_sim_dataset(sim_dir))
     print("clips:", [(c.object_name, c.sensor, c.n_frames) for c in clips])
 
-    # 2. Tokenizer (byte-level BPE on the project's own text) + the tiny Qwen2 + the tactile encoder.
-    tokenizer = train_tokenizer(tokenizer_training_texts(), vocab_size=2048)
+    # 2. Tokenizer (byte-level BPE on the project's own wording) + an untrained 2-layer Qwen2 + the tactile encoder.
+    #    (A real model wraps a pretrained LLM instead: `tacreasoner llm get smollm2` and model.build.build_model.)
+    tokenizer = train_tokenizer(wording_texts(), vocab_size=2048)
     encoder = TactileEncoderConfig()  # the tiny defaults: 8 frames of 64×64, 5 tactile tokens per video
     processor = TacReasonerProcessor.for_encoder(tokenizer, encoder)
-    config = TacReasonerConfig(text_config=tiny_qwen2_config(len(tokenizer)).to_dict(), encoder=encoder.to_dict(),
+    text = Qwen2Config(vocab_size=len(tokenizer), hidden_size=128, num_hidden_layers=2, num_attention_heads=4,
+                       num_key_value_heads=2, intermediate_size=256, tie_word_embeddings=True)
+    config = TacReasonerConfig(text_config=text.to_dict(), encoder=encoder.to_dict(),
                                tactile_token_id=processor.tactile_token_id)
     model = TacReasonerForCausalLM(config).eval()
     print(f"parameters: {sum(p.numel() for p in model.parameters()) / 1e6:.1f} M")

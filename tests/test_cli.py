@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -11,7 +10,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from tacreasoner import __version__, cli
+from tacreasoner import __version__
 from tacreasoner.cli import app
 
 runner = CliRunner()
@@ -148,122 +147,33 @@ def test_sim_preview_missing_dataset_or_clip(dataset: Path, tmp_path: Path) -> N
 # ------------------------------------------------------------------------------------------ quickstart
 
 
-def test_quickstart_runs_named_stages(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    def no_llm(*args: object) -> None:
-        raise AssertionError("--no-train started the LLM pre-training")
-
-    monkeypatch.setattr(cli, "_start_llm_pretraining", no_llm)
+def test_quickstart_runs_named_stages(tmp_path: Path) -> None:
     out = tmp_path / "qs"
     result = invoke("quickstart", "--out", out, "--objects", "2", "--repeats", "1", "--workers", "1", "--no-train")
     assert result.exit_code == 0, result.output
-    for n, stage in enumerate(("simulate", "preview", "benchmark", "baselines", "touchcot"), 1):
-        assert f"[{n}/5] {stage}" in result.stdout
+    for n, stage in enumerate(("simulate", "preview", "benchmark", "baselines"), 1):
+        assert f"[{n}/4] {stage}" in result.stdout
     assert len((out / "sim" / "manifest.jsonl").read_text().splitlines()) == 2
     assert_pngs([out / "preview" / f"mini_apple_{kind}_0{suffix}.png"
                  for kind in ("real", "fake") for suffix in ("", "_signals")])
-    assert "data stages finished" in result.stdout and not (out / "train").exists()
+    assert "data stages finished" in result.stdout and not (out / "train").exists() and not (out / "llm").exists()
 
 
-FAKE_PRETRAINING = """
-import json, sys, time
-from pathlib import Path
-out = Path(sys.argv[1])
-out.mkdir(parents=True, exist_ok=True)
-(out / "pretrain.json").write_text(json.dumps({"settings": {"steps": 20}}))
-for step in (10, 20):
-    with (out / "train_log.jsonl").open("a") as f:
-        f.write(json.dumps({"step": step, "loss": 1.5}) + "\\n")
-    time.sleep(0.1)
-if len(sys.argv) > 2:
-    print("Traceback (most recent call last):\\nRuntimeError: fake failure", file=sys.stderr)
-    sys.exit(1)
-(out / "model.safetensors").write_bytes(b"weights")
-(out / "config.json").write_text("{}")
-(out / "pretrain.json").write_text(json.dumps({"settings": {"steps": 20}, "parameters": 123456, "steps_done": 20,
-                                               "final_loss": 1.5, "train_seconds": 3.2}))
-"""
-
-
-def _stage(stages: list, name: str):
-    return next(stage for stage in stages if stage.name == name)
-
-
-def test_quickstart_pretrains_the_encoder_while_the_background_llm_finishes(tmp_path: Path) -> None:
-    """The encoder's stage comes before the wait for the LLM, and both before training."""
-    names = [stage.name for stage in cli._training_stages(tmp_path / "qs", 0, 1, 1, None)]
-    assert names.index("encoder") < names.index("pretrain-llm") < names.index("train")
-
-
-def fake_pretraining(monkeypatch: pytest.MonkeyPatch, *extra: str) -> None:
-    monkeypatch.setattr(cli, "_llm_pretraining_command",
-                        lambda llm_dir, seed: [sys.executable, "-c", FAKE_PRETRAINING, str(llm_dir), *extra])
-
-
-def test_quickstart_llm_stage_waits_for_the_background_pretraining_then_skips_it(
+def test_quickstart_stops_at_the_first_failing_stage_with_one_error_line(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    fake_pretraining(monkeypatch)
-    out = tmp_path / "qs"
-    job = cli._start_llm_pretraining(out, 0)
-    assert job is not None and job.log == out / "llm.log"
-    stage = _stage(cli._training_stages(out, 0, 1, 1, job), "pretrain-llm")
-    assert cli._llm_steps(out / "llm") in (None, (0, 20), (10, 20), (20, 20))
-    assert stage.run() == ["0.1 M parameters, 20 steps, final loss 1.5, 3 s",
-                           f"trained in the background at 1 thread alongside the data stages; log: {out / 'llm.log'}"]
-    assert cli._llm_steps(out / "llm") == (20, 20)
-    assert cli._start_llm_pretraining(out, 0) is None  # a re-run starts nothing …
-    assert _stage(cli._training_stages(out, 0, 1, 1, None), "pretrain-llm").run() == [
-        f"already trained: {out / 'llm'}"]  # … and says so
+    def simulation(*args: object, **kwargs: object) -> None:
+        raise ValueError("simulation broke")
+
+    monkeypatch.setattr("tacreasoner.sim.run.run_simulation", simulation)
+    result = invoke("quickstart", "--out", tmp_path / "qs", "--objects", "2", "--repeats", "1", "--no-train")
+    assert_one_line_error(result, "simulation broke")
+    assert "[2/4]" not in result.stdout
 
 
-def test_quickstart_llm_failure_names_the_log_and_quotes_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    fake_pretraining(monkeypatch, "--fail")
-    out = tmp_path / "qs"
-    job = cli._start_llm_pretraining(out, 0)
-    with pytest.raises(OSError) as info:  # cli_errors makes it one error line
-        _stage(cli._training_stages(out, 0, 1, 1, job), "pretrain-llm").run()
-    line = cli._one_line(info.value)
-    assert "pretrain-llm failed (exit code 1)" in line and str(out / "llm.log") in line
-    assert "RuntimeError: fake failure" in line
-
-
-def test_quickstart_llm_pretraining_command_resumes_at_one_thread(tmp_path: Path,
-                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
-    command = cli._llm_pretraining_command(tmp_path / "llm", 7)
-    assert command[:3] == [sys.executable, "-m", "tacreasoner"]
-    calls: list[dict] = []
-
-    def pretrain_llm(out: Path, **kwargs: object) -> Path:
-        calls.append(kwargs)
-        out.mkdir(parents=True)
-        (out / "pretrain.json").write_text(json.dumps({"parameters": 1, "vocab_size": 1, "steps_done": 1,
-                                                       "tokens_seen": 1, "train_seconds": 1, "final_loss": 1}))
-        return out
-
-    monkeypatch.setattr("tacreasoner.train.pretrain_llm.pretrain_llm", pretrain_llm)
-    monkeypatch.setattr("tacreasoner.train.pretrain_llm.knowledge_check", None)  # --no-eval: never called
-    result = invoke(*command[3:])
-    assert result.exit_code == 0, result.output
-    assert len(calls) == 1 and calls[0]["threads"] == 1 and calls[0]["resume"] and calls[0]["seed"] == 7
-
-
-@pytest.mark.parametrize("failure", [ValueError("simulation broke"), KeyboardInterrupt()])
-def test_quickstart_starts_the_llm_first_and_stops_it_when_a_stage_fails(
-        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, failure: BaseException) -> None:
-    monkeypatch.setattr(cli, "_llm_pretraining_command",
-                        lambda llm_dir, seed: [sys.executable, "-c", "import time; time.sleep(60)"])
-    started = []
-    start = cli._start_llm_pretraining
-    monkeypatch.setattr(cli, "_start_llm_pretraining", lambda out, seed: started.append(start(out, seed)) or started[0])
-
-    def simulation(*args: object) -> None:
-        assert len(started) == 1 and started[0].process.poll() is None  # running before the first stage
-        raise failure
-
-    monkeypatch.setattr(cli, "run_simulation", simulation)
-    result = invoke("quickstart", "--out", tmp_path / "qs", "--objects", "2", "--repeats", "1")
-    assert result.exit_code == (2 if isinstance(failure, ValueError) else 130), result.output
-    assert "simulation broke" in result.stderr or isinstance(failure, KeyboardInterrupt)
-    assert started[0].process.returncode == -signal.SIGTERM  # stopped (and reaped) by the quickstart
+def test_quickstart_refuses_an_llm_folder_that_is_not_a_model_before_any_work(tmp_path: Path) -> None:
+    result = invoke("quickstart", "--out", tmp_path / "qs", "--llm", tmp_path / "nothing")
+    assert_one_line_error(result, "--llm", "config.json")
+    assert not (tmp_path / "qs").exists()
 
 
 def test_quickstart_rejects_bad_counts(tmp_path: Path) -> None:

@@ -83,10 +83,7 @@ def test_bad_configuration_is_one_line(bench: Path, tmp_path: Path, args: list[s
 
 def test_teacher_failures_are_reported_with_their_reason(bench: Path, tmp_path: Path) -> None:
     """A wrong API key must not look like success: the run says why the calls failed."""
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).parent / "cot"))
-    from fake_openai_server import FakeOpenAIServer
+    from tests.cot.fake_openai_server import FakeOpenAIServer
 
     with FakeOpenAIServer(expected_key="sk-right") as server:
         cfg = tmp_path / "t.yaml"

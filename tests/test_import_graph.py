@@ -20,11 +20,10 @@ ROOT = "root"
 """Leaf helpers at the package root: importable by every part, importing only each other."""
 ROOT_MODULES = frozenset({"__init__", "fields", "jsonl", "yamlfile", "progress", "video_io", "intervals"})
 """The root's own modules. ``__init__`` is here so that importing any part (say ``tacreasoner.sim``) stays light."""
-CLI_ROOT_MODULES = frozenset({"cli", "cli_serve", "__main__"})
+CLI_ROOT_MODULES = frozenset({"__main__"})
 """Root-level modules of the command line (the ``cli/`` package is part ``cli`` by its name)."""
-PART_OF_PACKAGE = {"knowledge": "train"}
-"""Sub-packages that count as another part: ``knowledge`` is the corpus of the tiny LLM that only its
-pre-training (``train/pretrain_llm.py``) reads; it is being retired."""
+PART_OF_PACKAGE: dict[str, str] = {}
+"""Sub-packages that count as another part (none today: every sub-package is a part of the flow)."""
 
 Graph = dict[str, set[str]]
 
@@ -201,7 +200,7 @@ def test_the_checker_sees_the_whole_package() -> None:
     graph = import_graph(PACKAGE_DIR)
     assert len(graph) > 100, sorted(graph)
     assert "tacreasoner.model.modeling" in graph["tacreasoner.model.build"]  # a top-level import
-    assert "tacreasoner.knowledge.corpus" in graph["tacreasoner.train.pretrain_llm"]
+    assert "tacreasoner.train.precision" in graph["tacreasoner.train.trainer"]
     unplaced = []
     for module in graph:
         try:
@@ -272,6 +271,6 @@ def test_the_checker_names_a_longer_cycle_and_a_root_helper_importing_a_part(tmp
 
 def test_the_checker_places_the_real_modules() -> None:
     assert part_of("tacreasoner") == part_of("tacreasoner.jsonl") == ROOT
-    assert {part_of(m) for m in ("tacreasoner.cli_serve", "tacreasoner.__main__", "tacreasoner.cli.app")} == {"cli"}
-    assert part_of("tacreasoner.knowledge.corpus") == "train"
+    assert {part_of(m) for m in ("tacreasoner.cli.serve", "tacreasoner.__main__", "tacreasoner.cli.app")} == {"cli"}
+    assert part_of("tacreasoner.recipes.quickstart") == "recipes"
     assert part_of("tacreasoner.model.heads.cross_video") == "model"

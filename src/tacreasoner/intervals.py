@@ -1,7 +1,7 @@
 """Binomial confidence intervals, for every part that reports an accuracy over a few hundred items.
 
-A leaf at the package root (it needs only ``math``): the benchmark reports (``evaluate``) and the tiny LLM's
-knowledge check during pre-training (``train``) both use it, and training must not import the evaluation.
+A leaf at the package root (it needs only ``math``), so any part may report an interval without importing the
+evaluation.
 The Wilson interval keeps good coverage at small n and near 0 or 1, unlike the normal approximation.
 """
 

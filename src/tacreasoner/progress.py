@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import sys
 import time
+from types import TracebackType
 from typing import IO, Any
 
-__all__ = ["ProgressBar"]
+__all__ = ["ClipProgress", "ProgressBar", "StageProgress"]
 
 
 class ProgressBar:
@@ -98,6 +99,62 @@ class ProgressBar:
         if state:
             parts.append(state)
         print("  ".join(parts), file=self.stream, flush=True)
+
+
+
+class ClipProgress:
+    """A progress display fed by a ``progress(done, total)`` callback (``generate_dataset``'s and others alike).
+
+    It starts on the first report, so a run that fails its argument checks prints nothing, and work already on
+    disk (resume) counts as done without inflating the rate.
+    """
+
+    def __init__(self, label: str = "simulating", unit: str = "clips") -> None:
+        self._label = label
+        self._unit = unit
+        self._bar = ProgressBar()
+        self._started = False
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self._started:
+            self._bar.stage(self._label, total, done, unit=self._unit)
+            self._started = True
+        else:
+            self._bar.update(done)
+
+    def __enter__(self) -> ClipProgress:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._bar.close()
+
+
+class StageProgress:
+    """One progress display per named stage, called as ``(stage, done, total)`` (prepare: clips, else samples)."""
+
+    def __init__(self) -> None:
+        self._bars: dict[str, ClipProgress] = {}
+
+    def __call__(self, stage: str, done: int, total: int) -> None:
+        if stage not in self._bars:
+            for bar in self._bars.values():
+                bar.close()
+            self._bars[stage] = ClipProgress(stage, "clips" if stage == "prepare" else "samples")
+        self._bars[stage](done, total)
+
+    def close(self) -> None:
+        for bar in self._bars.values():
+            bar.close()
+
+    def __enter__(self) -> StageProgress:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
 
 def _clock(seconds: float) -> str:

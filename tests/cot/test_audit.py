@@ -7,12 +7,12 @@ import re
 
 import numpy as np
 import pytest
-from cot_samples import good_sample, make_item, make_sample
 
 from tacreasoner.cot.audit import COLUMNS, export_review, import_review, stratified_sample
 from tacreasoner.cot.filter import filter_samples
 from tacreasoner.tasks.schema import VideoRef
 from tacreasoner.video_io import write_video
+from tests.cot.cot_samples import good_sample, make_item, make_sample
 
 
 def _tiny_clip(path, n=12):

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import pytest
-from cot_samples import GOLDS, good_sample, make_item, make_sample, varied_think
 
 from tacreasoner.cot.filter import (
     FilterConfig,
@@ -16,6 +15,7 @@ from tacreasoner.cot.filter import (
     shingles,
     stages_mentioned,
 )
+from tests.cot.cot_samples import GOLDS, good_sample, make_item, make_sample, varied_think
 
 TASKS = list(GOLDS)
 GOOD_HARDNESS_THINK = ("During pressing the contact area grows quickly to 0.41 of the pad and the imprint is broad. "

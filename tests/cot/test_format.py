@@ -5,12 +5,12 @@ from __future__ import annotations
 import json
 
 import pytest
-from cot_samples import good_sample, make_item, make_sample
 
 from tacreasoner.cot.filter import filter_samples
 from tacreasoner.cot.format import assign_splits, write_training_files
 from tacreasoner.jsonl import iter_jsonl
 from tacreasoner.tasks.schema import VideoRef
+from tests.cot.cot_samples import good_sample, make_item, make_sample
 
 USAGE = {"prompt_tokens": 120, "completion_tokens": 80, "cost_usd": 0.0005}
 

@@ -7,12 +7,12 @@ import time
 from collections.abc import Iterator
 
 import pytest
-from fake_openai_server import FakeOpenAIServer
 
 from tacreasoner.cot.backends import Teacher, TeacherConfig, TeacherError, reply_to_output
 from tacreasoner.cot.openai_backend import OpenAITeacher
 from tacreasoner.cot.schema import CoTJob, Prompt, VideoCues
 from tacreasoner.tasks.schema import QAItem, VideoRef
+from tests.cot.fake_openai_server import FakeOpenAIServer
 
 KEY_ENV = "TACREASONER_TEST_KEY"
 

@@ -11,14 +11,14 @@ import time
 from pathlib import Path
 
 import pytest
-from fake_openai_server import FakeOpenAIServer
-from touchcot_bench import prepared
 
 from tacreasoner.cot.backends import TeacherConfig, make_teacher
 from tacreasoner.cot.filter import filter_samples
 from tacreasoner.cot.pipeline import SAMPLES, generate, load_samples
 from tacreasoner.cot.prompts import build_prompt
 from tacreasoner.cot.schema import CoTJob
+from tests.cot.fake_openai_server import FakeOpenAIServer
+from tests.cot.touchcot_bench import prepared
 
 MARKER = "The correct answer is:"
 

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from touchcot_bench import prepared
 
 from tacreasoner.cot import prepare
 from tacreasoner.cot.prepare import CueCache, PrepareStats, clip_cue_table, prepare_jobs, stages_for
@@ -19,6 +18,7 @@ from tacreasoner.data.cues import frame_signals
 from tacreasoner.data.readers import read_sim_dataset
 from tacreasoner.data.sampling import background_frame
 from tacreasoner.tasks.bench import load_bench
+from tests.cot.touchcot_bench import prepared
 
 ACTIONS = {"slide", "rotate"}
 

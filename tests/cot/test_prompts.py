@@ -6,7 +6,6 @@ import shutil
 from pathlib import Path
 
 import pytest
-from touchcot_bench import prepared
 
 from tacreasoner.cot import cuetext
 from tacreasoner.cot.prompts import (
@@ -19,6 +18,7 @@ from tacreasoner.cot.prompts import (
 )
 from tacreasoner.cot.schema import CoTJob
 from tacreasoner.tasks.vocab import get_vocabulary
+from tests.cot.touchcot_bench import prepared
 
 
 @pytest.fixture(scope="module")

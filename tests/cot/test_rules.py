@@ -10,8 +10,6 @@ from collections import Counter, defaultdict
 from pathlib import Path
 
 import pytest
-from cot_samples import make_sample
-from touchcot_bench import prepared, variants
 
 from tacreasoner.cot import cuetext
 from tacreasoner.cot.prompts import build_prompt
@@ -20,6 +18,8 @@ from tacreasoner.cot.schema import CoTJob
 from tacreasoner.tasks.schema import CONTACT_STATES
 from tacreasoner.tasks.scoring import score_item
 from tacreasoner.tasks.vocab import get_vocabulary
+from tests.cot.cot_samples import make_sample
+from tests.cot.touchcot_bench import prepared, variants
 
 STAGE_WORDS = {"press": r"press", "hold": r"hold|held", "slide": r"slid", "rotate": r"rotat", "release": r"releas"}
 

@@ -8,13 +8,13 @@ import shutil
 from pathlib import Path
 
 import pytest
-from evalsetup import save_untrained_model
 from typer.testing import CliRunner
 
 from tacreasoner.evaluate.octopi import OCTOPI_COLUMNS, octopi_table
 from tacreasoner.tasks.bench import build_folder_bench, load_bench
 from tacreasoner.tasks.scoring import score_item
 from tacreasoner.video_io import VideoError
+from tests.evaluate.evalsetup import save_untrained_model
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "physiclear"
 OBJECTS = {  # name → (hardness, roughness, bumpiness), as in the shared labels.json

@@ -15,8 +15,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from evalsetup import ENCODER, save_untrained_model
-from test_physiclear_folder import SHARED, make_folder
 from typer.testing import CliRunner
 
 import tacreasoner.train.data as train_data
@@ -25,6 +23,8 @@ from tacreasoner.evaluate.retrieval import PREFIX, ReferenceClip, ReferenceSet, 
 from tacreasoner.tasks.bench import build_bench, build_folder_bench, load_bench
 from tacreasoner.tasks.schema import PLACEHOLDER
 from tacreasoner.tasks.vocab import PHYSICLEAR
+from tests.evaluate.evalsetup import ENCODER, save_untrained_model
+from tests.evaluate.test_physiclear_folder import SHARED, make_folder
 
 pytestmark = pytest.mark.skipif(not (SHARED / "labels.json").is_file(),
                                 reason="PhysiCLeAR is not beside the checkout (../shared/data/physiclear)")

@@ -7,11 +7,11 @@ import math
 from pathlib import Path
 
 import pytest
-from evalsetup import save_untrained_model
 from typer.testing import CliRunner
 
 from tacreasoner.evaluate.task_loss import task_loss_markdown, task_losses
 from tacreasoner.tasks.bench import load_bench
+from tests.evaluate.evalsetup import save_untrained_model
 
 
 @pytest.fixture(scope="module")

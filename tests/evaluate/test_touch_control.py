@@ -11,7 +11,6 @@ from typing import Any
 
 import pytest
 import torch
-from evalsetup import benchmark_module, save_untrained_model
 from typer.testing import CliRunner
 
 from tacreasoner.evaluate.predict import (
@@ -27,6 +26,7 @@ from tacreasoner.evaluate.predict import (
 from tacreasoner.tasks.bench import BENCH_VERSION, load_bench
 from tacreasoner.tasks.schema import QAItem
 from tacreasoner.train.data import bench_video_root, video_key
+from tests.evaluate.evalsetup import benchmark_module, save_untrained_model
 
 
 @pytest.fixture(scope="module")

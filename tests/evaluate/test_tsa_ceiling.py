@@ -5,9 +5,9 @@ from __future__ import annotations
 from typing import Any
 
 import pytest
-from evalsetup import benchmark_module
 
 from tacreasoner.tasks.schema import QAItem, VideoRef
+from tests.evaluate.evalsetup import benchmark_module
 
 
 @pytest.fixture(scope="module")

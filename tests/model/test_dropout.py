@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 import torch
-from test_stages import _model
 from torch import nn
 
 from tacreasoner.model.dropout import CpuDropout, use_cpu_dropout
 from tacreasoner.model.stages import LoraSettings, configure_stage
+from tests.model.test_stages import _model
 
 
 def test_drops_at_the_stated_rate_and_keeps_the_expectation() -> None:

@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from tinymodel import TACTILE_ID, TEXT_CONFIG
 from typer.testing import CliRunner
 
 from tacreasoner.cli import app
@@ -22,6 +21,7 @@ from tacreasoner.model.efficientnet import (
     load_imagenet_weights,
 )
 from tacreasoner.model.encoder_config import TactileEncoderConfig
+from tests.model.tinymodel import TACTILE_ID, TEXT_CONFIG
 
 
 def small(layer: str = "block112", size: tuple[int, int] = (48, 64)) -> TactileEncoderConfig:

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import pytest
 import torch
-from tinymodel import batch, prompt, tiny_model, videos
 
 from tacreasoner.model.heads import (
     ClipReader,
@@ -17,6 +16,7 @@ from tacreasoner.model.heads import (
     crossfit,
     object_folds,
 )
+from tests.model.tinymodel import batch, prompt, tiny_model, videos
 
 TRAITS = ("hardness", "real")
 

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 import torch
-from tinymodel import ENCODER, TACTILE_ID, TEXT_CONFIG, batch, prompt, tiny_model, videos
 
 from tacreasoner.model.modeling import TacReasonerForCausalLM
+from tests.model.tinymodel import ENCODER, TACTILE_ID, TEXT_CONFIG, batch, prompt, tiny_model, videos
 
 TEXT_HIDDEN = TEXT_CONFIG["hidden_size"]
 

@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from tinymodel import TEXT_CONFIG
 
 from tacreasoner.data.clip import TactileClip
 from tacreasoner.model.configuration import TacReasonerConfig
@@ -19,6 +18,7 @@ from tacreasoner.model.modeling import TacReasonerForCausalLM, TactileAnswer
 from tacreasoner.model.processing import IGNORE_INDEX, OPTION_MASK_OFFSET, TacReasonerProcessor, option_spans
 from tacreasoner.model.tokenizer import TACTILE_PAD, train_tokenizer
 from tacreasoner.tasks.answers import OPTION_MARKER
+from tests.model.tinymodel import TEXT_CONFIG
 
 ENCODER = TactileEncoderConfig(num_frames=4, image_size=(32, 32), patch_size=8, hidden_size=32, num_layers=1,
                                num_heads=2, temporal_hidden_size=32, temporal_tokens=2, fusion_heads=2,

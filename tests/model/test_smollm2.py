@@ -11,12 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from tinymodel import ENCODER
 
 from tacreasoner.model.build import build_model
 from tacreasoner.model.llm_fetch import default_cache_dir, get_llm
 from tacreasoner.model.processing import IGNORE_INDEX
 from tacreasoner.model.stages import LoraSettings, configure_stage
+from tests.model.tinymodel import ENCODER
 
 SYSTEM = "You answer questions about what a tactile sensor felt."
 

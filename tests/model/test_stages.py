@@ -11,7 +11,6 @@ from types import SimpleNamespace
 
 import pytest
 import torch
-from tinymodel import TACTILE_ID, batch, prompt, tiny_model, videos
 
 from tacreasoner.model.modeling import TacReasonerForCausalLM
 from tacreasoner.model.stages import (
@@ -22,6 +21,7 @@ from tacreasoner.model.stages import (
     no_decay_parameter_names,
     trainable_parameter_names,
 )
+from tests.model.tinymodel import TACTILE_ID, batch, prompt, tiny_model, videos
 
 NEW_IDS = [296, 297, 298, TACTILE_ID]
 
@@ -185,8 +185,6 @@ def test_adapter_saves_apart_and_merging_keeps_the_outputs(tmp_path) -> None:
 
 
 def test_merge_adapter_command(tmp_path) -> None:
-    from test_processing import ENCODER, TEXTS
-    from tinymodel import TEXT_CONFIG
     from typer.testing import CliRunner
 
     from tacreasoner.cli import app
@@ -194,6 +192,8 @@ def test_merge_adapter_command(tmp_path) -> None:
     from tacreasoner.model.configuration import TacReasonerConfig
     from tacreasoner.model.processing import TacReasonerProcessor
     from tacreasoner.model.tokenizer import train_tokenizer
+    from tests.model.test_processing import ENCODER, TEXTS
+    from tests.model.tinymodel import TEXT_CONFIG
 
     processor = TacReasonerProcessor.for_encoder(train_tokenizer(TEXTS, vocab_size=400), ENCODER)
     config = TacReasonerConfig(text_config={**TEXT_CONFIG, "vocab_size": len(processor.tokenizer)},
@@ -256,9 +256,8 @@ dist.init_process_group("gloo", rank=0, world_size=1)
 from accelerate.utils import FullyShardedDataParallelPlugin
 from accelerate.utils.fsdp_utils import fsdp2_prepare_model
 from torch.distributed.fsdp import FSDPModule
-from tinymodel import tiny_model
 from tacreasoner.model.stages import LoraSettings, configure_stage
-from tinymodel import TACTILE_ID, batch, prompt, videos
+from tests.model.tinymodel import TACTILE_ID, batch, prompt, tiny_model, videos
 model = tiny_model(text={"tie_word_embeddings": sys.argv[1] == "tied"})
 model.config.new_token_ids = [296, 297]
 trained = configure_stage(model, int(sys.argv[2]), LoraSettings(r=4, alpha=8))
@@ -281,7 +280,7 @@ def test_accelerate_fsdp2_shards_and_backpropagates_except_the_tied_stage_two_mo
     """The upstream failure the refusal above stands for: if accelerate fixes it, this fails and the refusal can go.
     Stage I (its new rows are plain parameters) shards and reaches its rows, tied or not."""
     env = {**os.environ, "MASTER_ADDR": "127.0.0.1", "MASTER_PORT": str(free_port()),
-           "PYTHONPATH": os.pathsep.join([str(Path(__file__).parent), os.environ.get("PYTHONPATH", "")])}
+           "PYTHONPATH": os.pathsep.join([str(Path(__file__).parents[2]), os.environ.get("PYTHONPATH", "")])}
     done = subprocess.run([sys.executable, "-c", FSDP2_PREPARE, embeddings, str(stage)], capture_output=True, text=True,
                           env=env, cwd=tmp_path, timeout=300)
     if embeddings == "untied" or stage == 1:

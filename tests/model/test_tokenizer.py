@@ -1,4 +1,5 @@
-"""The tiny LLM's tokenizer: ChatML template, single-token specials and tags, prepare_tokenizer on any tokenizer."""
+"""The project's own small tokenizer (ChatML template, single-token specials and tags) and prepare_tokenizer on any
+tokenizer."""
 
 from __future__ import annotations
 
@@ -6,7 +7,6 @@ from pathlib import Path
 
 import pytest
 
-from tacreasoner.knowledge.corpus import chatml
 from tacreasoner.model.tokenizer import (
     CHAT_TEMPLATE,
     END_OF_TEXT,
@@ -44,7 +44,7 @@ def test_chat_template_prefix_plus_answer_is_the_full_rendering(tokenizer, messa
     full = tokenizer.apply_chat_template(messages, tokenize=False)
     assert prefix + messages[-1]["content"] + "<|im_end|>\n" == full
     assert prefix.endswith("<|im_start|>assistant\n")
-    assert full == chatml(messages)  # the corpus renders dialogues exactly like the template
+    assert full == "".join(f"<|im_start|>{m['role']}\n{m['content']}<|im_end|>\n" for m in messages)  # ChatML
 
 
 def test_template_has_no_default_system_message_and_marks_assistant_tokens(tokenizer) -> None:

@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 import torch
 import transformers
-from test_videomae import clips, save_hf
-from tinymodel import TACTILE_ID, TEXT_CONFIG
 
 from tacreasoner.model.appearance import AppearanceEncoder, load_appearance
 from tacreasoner.model.build import appearance_video_settings, build_model
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.videomae import IMAGENET_MEAN, IMAGENET_STD, videomae_video_settings
+from tests.model.test_videomae import clips, save_hf
+from tests.model.tinymodel import TACTILE_ID, TEXT_CONFIG
 
 MEAN, STD = [0.45, 0.4, 0.35], [0.3, 0.25, 0.2]  # not ImageNet's, not transformers' default: read from the file
 

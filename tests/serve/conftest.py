@@ -2,18 +2,14 @@
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "evaluate"))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from evalsetup import save_untrained_model
-from served import REPLIES, TEXTS, press_clip
-
-from tacreasoner.data.video import write_video
+from tacreasoner.video_io import write_video
+from tests.evaluate.evalsetup import save_untrained_model
+from tests.serve.served import REPLIES, TEXTS, press_clip
 
 
 @pytest.fixture(scope="session")

@@ -14,11 +14,11 @@ from typing import Any
 import httpx
 import openai
 import pytest
-from served import ONE, free_port
 from typer.testing import CliRunner
 
 from tacreasoner.cli import app
 from tacreasoner.serve.media import video_data_url
+from tests.serve.served import ONE, free_port
 
 
 def test_ask_streams_the_reasoning_then_the_answer(served_model: Path, clip_files: list[Path]) -> None:

@@ -13,7 +13,6 @@ from typing import Any
 
 import numpy as np
 import pytest
-from served import ONE, free_port, press_clip
 
 from tacreasoner.serve import TactileEngine
 from tacreasoner.serve.demo import (
@@ -28,6 +27,7 @@ from tacreasoner.serve.demo import (
     heat_figure,
     question_for,
 )
+from tests.serve.served import ONE, free_port, press_clip
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 BROWSER_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",

@@ -7,11 +7,11 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from served import ONE, REPLIES, TWO, press_clip
 
 from tacreasoner.serve import Delta, Prompt, Reply, RequestError, Sampling, TactileEngine
 from tacreasoner.serve.engine import MIN_CLIP_FRAMES, DecodeTimeout
 from tacreasoner.tasks.extract import split_reasoning
+from tests.serve.served import ONE, REPLIES, TWO, press_clip
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,6 @@ from typing import Any
 import httpx
 import openai
 import pytest
-from served import ONE, REPLIES, TWO, free_port, press_clip
 
 from tacreasoner.serve import TactileEngine
 from tacreasoner.serve.engine import MIN_CLIP_FRAMES
@@ -21,6 +20,7 @@ from tacreasoner.serve.http import ServerThread
 from tacreasoner.serve.media import MediaLimits, video_data_url
 from tacreasoner.serve.openai_api import ServerSettings, create_app
 from tacreasoner.tasks.extract import split_reasoning
+from tests.serve.served import ONE, REPLIES, TWO, free_port, press_clip
 
 KEY = "test-key"
 

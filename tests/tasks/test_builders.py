@@ -7,7 +7,6 @@ import re
 from collections import Counter
 
 import pytest
-from clipfactory import make_clips
 
 from tacreasoner.data.clip import TactileClip
 from tacreasoner.tasks.builders import (
@@ -23,6 +22,7 @@ from tacreasoner.tasks.scenarios import load_scenarios
 from tacreasoner.tasks.schema import CONTACT_STATES, PHASE_TO_STATE, PLACEHOLDER, QAItem
 from tacreasoner.tasks.templating import load_templates
 from tacreasoner.tasks.vocab import PHYSICLEAR, VTV150K
+from tests.tasks.clipfactory import make_clips
 
 VTV_TASKS = ["TFA-hardness", "TFA-protrusion", "TFA-elasticity", "TFA-friction", "TFA-combined", "SFD", "SOI", "OSC",
              "TSA", "RFOR", "OCSE"]

@@ -5,12 +5,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from clipfactory import make_clips
 
 from tacreasoner.evaluate.baselines import answer_space
 from tacreasoner.tasks.bench import build_bench, load_bench, tasks_for
 from tacreasoner.tasks.builders import build_items
 from tacreasoner.tasks.scoring import score_item
+from tests.tasks.clipfactory import make_clips
 
 PHYSICLEAR = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "physiclear"
 

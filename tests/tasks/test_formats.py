@@ -6,7 +6,6 @@ import json
 from pathlib import Path
 
 import pytest
-from clipfactory import make_clips
 
 from tacreasoner.tasks.builders import build_items
 from tacreasoner.tasks.formats import (
@@ -22,6 +21,7 @@ from tacreasoner.tasks.formats import (
     write_vtv_json,
 )
 from tacreasoner.tasks.schema import QAItem
+from tests.tasks.clipfactory import make_clips
 
 TASKS = ["TFA-hardness", "TFA-protrusion", "TFA-elasticity", "TFA-friction", "TFA-combined", "SFD", "SOI", "OSC",
          "TSA", "RFOR", "OCSE"]

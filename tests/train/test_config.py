@@ -131,7 +131,7 @@ def test_values_of_the_wrong_type_are_errors_naming_the_key(tmp_path, text, need
 def test_mixed_precision_no_is_accepted_unquoted(tmp_path: Path) -> None:
     assert load_train_config(write(tmp_path, "runtime:\n  mixed_precision: no\n")).runtime.mixed_precision == "no"
     # what `--set runtime.mixed_precision=no` hands over (values are parsed as YAML scalars)
-    config = load_train_config(CONFIGS / "tiny-cpu.yaml", {"runtime.mixed_precision": False})
+    config = load_train_config(config_file("quickstart-smollm2-cpu"), {"runtime.mixed_precision": False})
     assert config.runtime.mixed_precision == "no"
 
 
@@ -148,8 +148,8 @@ def test_a_file_that_is_not_a_config_is_refused(tmp_path: Path) -> None:
 
 
 def test_overrides_replace_values_and_create_sections(tmp_path: Path) -> None:
-    base = load_train_config(CONFIGS / "tiny-cpu.yaml")
-    config = load_train_config(CONFIGS / "tiny-cpu.yaml", {"stage2.steps": 7, "runtime.threads": 1,
+    base = load_train_config(config_file("quickstart-smollm2-cpu"))
+    config = load_train_config(config_file("quickstart-smollm2-cpu"), {"stage2.steps": 7, "runtime.threads": 1,
                                                             "output_dir": str(tmp_path), "lora.r": 16})
     assert (config.stage2.steps, config.runtime.threads, config.output_dir, config.lora.r) == (7, 1, str(tmp_path),
                                                                                               16)
@@ -160,12 +160,12 @@ def test_overrides_replace_values_and_create_sections(tmp_path: Path) -> None:
 
 
 def test_bad_overrides_are_refused_naming_the_key(tmp_path: Path) -> None:
-    _, message = error_of(CONFIGS / "tiny-cpu.yaml", {"stage1.steps": -1})
+    _, message = error_of(config_file("quickstart-smollm2-cpu"), {"stage1.steps": -1})
     assert "stage1.steps must be at least 1, got -1" in message
-    _, message = error_of(CONFIGS / "tiny-cpu.yaml", {"stage2.stepz": 1})
+    _, message = error_of(config_file("quickstart-smollm2-cpu"), {"stage2.stepz": 1})
     assert "'stepz'" in message
     with pytest.raises(ValueError, match="seed is not a section"):
-        load_train_config(CONFIGS / "tiny-cpu.yaml", {"seed.value": 1})
+        load_train_config(config_file("quickstart-smollm2-cpu"), {"seed.value": 1})
     data = {"stage2": {"steps": 1}}
     apply_override(data, "stage2.lr", 0.5)
     apply_override(data, "runtime.log_with", "none")
@@ -176,16 +176,17 @@ def test_bad_overrides_are_refused_naming_the_key(tmp_path: Path) -> None:
 
 
 def test_every_shipped_config_is_tested() -> None:
-    tested = {"tiny-cpu", "qwen2.5-7b", "qwen2.5-14b", "smollm2-135m", "smollm2-135m-touchcot", "smollm2-135m-cpu",
-              "smollm2-135m-heads-cpu", "physiclear-smollm2-cpu"}
+    tested = {"quickstart-smollm2-cpu", "qwen2.5-7b", "qwen2.5-14b", "smollm2-135m", "smollm2-135m-touchcot",
+              "smollm2-135m-cpu", "smollm2-135m-heads-cpu", "physiclear-smollm2-cpu"}
     from tacreasoner.train.config import SHIPPED_CONFIGS
 
     training = {p.stem for p in CONFIGS.glob("*.yaml") if not p.stem.startswith("teacher-")} | set(SHIPPED_CONFIGS)
     assert training == tested
 
 
-@pytest.mark.parametrize("name", ["tiny-cpu", "qwen2.5-7b", "qwen2.5-14b", "smollm2-135m", "smollm2-135m-touchcot",
-                                  "smollm2-135m-cpu", "smollm2-135m-heads-cpu", "physiclear-smollm2-cpu"])
+@pytest.mark.parametrize("name", ["quickstart-smollm2-cpu", "qwen2.5-7b", "qwen2.5-14b", "smollm2-135m",
+                                  "smollm2-135m-touchcot", "smollm2-135m-cpu", "smollm2-135m-heads-cpu",
+                                  "physiclear-smollm2-cpu"])
 def test_the_shipped_configs_load_check_and_round_trip(name: str) -> None:
     config = load_train_config(config_file(name))
     config.check()
@@ -269,9 +270,9 @@ def test_train_refuses_an_unknown_config_key_in_one_line(cli, tmp_path: Path) ->
 
 
 def test_train_refuses_a_bad_override_in_one_line(cli) -> None:
-    result = cli("train", "--stage", "1", "--config", CONFIGS / "tiny-cpu.yaml", "--set", "stage1.steps=-1")
+    result = cli("train", "--stage", "1", "--config", config_file("quickstart-smollm2-cpu"), "--set", "stage1.steps=-1")
     assert_one_line_error(result, "stage1.steps", "-1")
-    result = cli("train", "--stage", "1", "--config", CONFIGS / "tiny-cpu.yaml", "--set", "stage1.steps")
+    result = cli("train", "--stage", "1", "--config", config_file("quickstart-smollm2-cpu"), "--set", "stage1.steps")
     assert_one_line_error(result, "--set", "KEY=VALUE")
 
 
@@ -289,7 +290,7 @@ def test_train_refuses_stage_3_when_the_inputs_exist(cli, tmp_path: Path) -> Non
 
 
 def test_train_refuses_stage_3_before_looking_at_the_inputs(cli) -> None:
-    assert_one_line_error(cli("train", "--stage", "3", "--config", CONFIGS / "tiny-cpu.yaml"), "stage", "3")
+    assert_one_line_error(cli("train", "--stage", "3", "--config", config_file("quickstart-smollm2-cpu")), "stage", "3")
 
 
 # ------------------------------------------------------------------------------------------ accelerate configs
@@ -343,7 +344,7 @@ def test_the_fsdp_config_wraps_qwen2_decoder_layers(monkeypatch: pytest.MonkeyPa
 
 
 def test_set_reads_exponent_numbers_without_a_dot_as_floats() -> None:
-    from tacreasoner.cli import _parse_overrides
+    from tacreasoner.cli.app import parse_overrides as _parse_overrides
 
     # YAML 1.1 reads "1e-4" as a string; `--set stage2.lr=1e-4` must still set a float
     overrides = _parse_overrides(["stage2.lr=1e-4", "stage1.lr=2.5E+0", "output_dir=run1e5", "seed=3"])
@@ -385,7 +386,7 @@ def test_a_shipped_config_loads_by_name_from_any_directory(tmp_path: Path, monke
     monkeypatch.chdir(tmp_path)
     config = load_train_config("physiclear-smollm2-cpu")
     assert config.model.appearance == "runs/effnet" and config.data.stage2_data == "plain"
-    with pytest.raises(FileNotFoundError, match="shipped one by name: physiclear-smollm2-cpu"):
+    with pytest.raises(FileNotFoundError, match="shipped one by name: quickstart-smollm2-cpu, physiclear-smollm2-cpu"):
         load_train_config("physiclear-smollm2-gpu")
 
 

@@ -16,11 +16,11 @@ from typing import Any
 
 import pytest
 import torch
-from ddp_worker import capture_trainable_weights
 from safetensors.torch import load_file
-from trainsetup import tiny_config, training_inputs
 
 from tacreasoner.train.trainer import train_stage
+from tests.train.ddp_worker import capture_trainable_weights
+from tests.train.trainsetup import tiny_config, training_inputs
 
 WORKER = Path(__file__).with_name("ddp_worker.py")
 TIMEOUT_S = 600  # a bound for hangs; a launch takes ~30 s alone, 300+ on 2 cores shared with other jobs
@@ -100,7 +100,7 @@ def test_the_defaults_prompt_dependent_parts_train_under_ddp_in_both_stages(inpu
     """The tiny default's cross-video layer (its name matcher and assignment vectors speak only in OSC prompts
     once fitted) and clip reader (one-video prompts only) leave parameters without a gradient in some batches,
     which plain DDP refuses ("Expected to have finished reduction in the prior iteration")."""
-    from trainsetup import ENCODER
+    from tests.train.trainsetup import ENCODER
 
     encoder = {**ENCODER, "cross_video": 3, "cross_video_names": True, "clip_reader": True}
     batch = {"steps": STEPS, "global_batch": 4}

@@ -136,7 +136,7 @@ def test_cli(tmp_path: Path) -> None:
 def test_cli_defaults_are_the_library_defaults() -> None:
     import inspect
 
-    from tacreasoner.cli import pretrain_encoder_cmd
+    from tacreasoner.cli.model import pretrain_encoder_cmd
     from tacreasoner.train.pretrain_encoder import DEFAULTS
 
     params = inspect.signature(pretrain_encoder_cmd).parameters

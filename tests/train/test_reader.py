@@ -5,7 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from trainsetup import training_inputs
+
+from tests.train.trainsetup import training_inputs
 
 
 @pytest.fixture(scope="module")

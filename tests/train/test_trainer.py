@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 import torch
 from safetensors.torch import load_file
-from trainsetup import tiny_config, training_inputs
 
 from tacreasoner.model.modeling import TacReasonerForCausalLM
 from tacreasoner.train.trainer import NonFiniteLossError, train_stage
+from tests.train.trainsetup import tiny_config, training_inputs
 
 
 @pytest.fixture(scope="module")
@@ -259,9 +259,8 @@ def test_evaluate_and_ask_commands_on_a_trained_model(two_stage_run: Path, input
 
 
 def test_stage_two_fits_the_comparator_first_and_keeps_it_frozen(inputs, tmp_path) -> None:
-    from trainsetup import ENCODER
-
     from tacreasoner.model.build import load_model
+    from tests.train.trainsetup import ENCODER
 
     def run(out: Path, steps: int) -> tuple[dict, TacReasonerForCausalLM]:
         config = tiny_config(inputs, out, stage1={"skip": True}, stage2={"steps": steps},
@@ -300,10 +299,9 @@ def test_stage_two_fits_the_clip_reader_on_train_gold_even_on_a_stage_one_model_
         inputs, two_stage_run, tmp_path) -> None:
     import shutil
 
-    from trainsetup import ENCODER
-
     from tacreasoner.model.build import load_model
     from tacreasoner.train.head_settings import READER_TRAITS
+    from tests.train.trainsetup import ENCODER
 
     out = tmp_path / "reader"
     shutil.copytree(two_stage_run / "stage1", out / "stage1", ignore=shutil.ignore_patterns("checkpoint-*"))

@@ -25,6 +25,7 @@ import torch
 from tacreasoner.tasks.schema import QAItem
 
 __all__ = ["TOUCH_MODES", "answerer_id", "blank_video", "check_touch", "load_trained", "predict_items",
+           "predict_split",
            "predictions_path", "set_aside_stale", "shuffle_videos"]
 
 TOUCH_MODES = ("real", "blank", "shuffled")
@@ -295,3 +296,26 @@ def _key_name(key: VideoKey, root: Path) -> str:
     path = Path(key[0])
     name = str(path.relative_to(root)) if path.is_relative_to(root) else str(path)
     return name if key[1] is None and key[2] is None else f"{name}[{key[1] or ''}:{key[2] or ''}]"
+
+
+def predict_split(model_dir: Path, bench: Path, split: str, out: Path, *, batch_size: int = 32,
+                  max_new_tokens: int = 256, limit: int | None = None, touch: str = "real", touch_seed: int = 0,
+                  ) -> tuple[list[QAItem], Path]:
+    """Answer one split of a benchmark with a saved model into ``out``'s predictions file (resuming it), with a
+    progress display; returns the items asked and the predictions path."""
+    from tacreasoner.progress import ClipProgress
+    from tacreasoner.tasks.bench import load_bench
+    from tacreasoner.train.data import bench_video_root
+
+    info, items = load_bench(bench, split)
+    items = items[:limit] if limit else items
+    if not items:
+        raise ValueError(f"{bench}: split {split!r} has no items")
+    model, processor = load_trained(model_dir)
+    path = predictions_path(out, split, touch)
+    label = split if touch == "real" else f"{split} ({touch} touch)"
+    with ClipProgress(f"answering {label}", "items") as bar:
+        predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
+                      max_new_tokens=max_new_tokens, progress=bar, touch=touch, touch_seed=touch_seed,
+                      answered_by=answerer_id(model_dir, bench))
+    return items, path

@@ -40,7 +40,7 @@ if TYPE_CHECKING:
 
 __all__ = ["DEFAULT_K", "PREFIX", "REFERENCE_SPLIT", "ReferenceClip", "ReferenceSet", "RetrievalSummary",
            "augment_bench", "augment_items", "build_reference", "embed_videos", "load_encoder", "neighbour_text",
-           "reference_clips", "retrieval_bench"]
+           "reference_clips", "reference_settings", "retrieval_bench"]
 
 DEFAULT_K = 3
 REFERENCE_SPLIT = "train"
@@ -358,3 +358,24 @@ def augment_bench(bench_dir: str | os.PathLike[str], reference_bench: str | os.P
     asked."""
     return _transform(Path(bench_dir), Path(bench_dir), Path(reference_bench), Path(encoder_dir), k, video_cache,
                       workers)
+
+
+def reference_settings(bench: Path, encoder: Path | None, k: int | None) -> tuple[Path, int]:
+    """The encoder and k to retrieve with against reference benchmark ``bench``: as given, else as ``bench``
+    records them (a ``retrieval-bench`` output's bench.json), so a folder is asked the way the model was trained."""
+    info_path = bench / BENCH_INFO
+    if not info_path.is_file():
+        raise FileNotFoundError(f"--retrieval {bench}: not a benchmark directory (no {BENCH_INFO})")
+    recorded = json.loads(info_path.read_text(encoding="utf-8")).get("retrieval") or {}
+    if encoder is None:
+        if not recorded.get("encoder"):
+            raise ValueError(f"--retrieval {bench} records no encoder (not made by `retrieval-bench`): give --encoder")
+        encoder = Path(recorded["encoder"])
+    if not (bench / "train.jsonl").is_file():
+        raise FileNotFoundError(f"--retrieval {bench}: no train split to retrieve neighbours from")
+    if not (encoder / "config.json").is_file():
+        raise FileNotFoundError(f"--encoder {encoder}: not an appearance encoder folder (no config.json)")
+    k = k if k is not None else int(recorded.get("k", DEFAULT_K))
+    if k < 1:
+        raise ValueError(f"--retrieval-k must be at least 1, got {k}")
+    return encoder, k

@@ -9,7 +9,6 @@ trained with. Without a checkpoint the project pre-trains it itself (:mod:`tacre
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 
@@ -17,15 +16,20 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from tacreasoner.jsonl import read_json_object
+from tacreasoner.model.appearance_io import (
+    CONFIG_NAME,
+    WEIGHTS_NAME,
+    load_checked,
+    load_safetensors_strict,
+    read_own_config,
+    save_appearance,
+)
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 
 __all__ = ["CONFIG_NAME", "WEIGHTS_NAME", "AppearanceEncoder", "TransformerBlock", "TubeletEmbedding",
            "build_appearance", "init_vit_weights", "load_appearance", "load_safetensors_strict", "num_parameters",
-           "patchify", "read_appearance_config", "save_appearance", "sinusoid_table"]
+           "patchify", "read_appearance_config", "save_appearance", "sinusoid_table", "videomae_appearance"]
 
-CONFIG_NAME = "config.json"
-WEIGHTS_NAME = "model.safetensors"
 
 
 def sinusoid_table(n_positions: int, dim: int) -> torch.Tensor:
@@ -236,20 +240,6 @@ def build_appearance(config: TactileEncoderConfig) -> nn.Module:
     return AppearanceEncoder(config)
 
 
-def save_appearance(model: nn.Module, save_directory: str | os.PathLike[str]) -> Path:
-    """Any appearance branch as ``config.json`` (its encoder config) + ``model.safetensors``; returns the directory."""
-    from safetensors.torch import save_file
-
-    out = Path(save_directory)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / CONFIG_NAME).write_text(json.dumps(model.config.to_dict(), indent=2) + "\n", encoding="utf-8")
-    state = {k: v.detach().contiguous().cpu() for k, v in model.state_dict().items()}
-    tmp = out / f".{WEIGHTS_NAME}.tmp"
-    save_file(state, str(tmp), metadata={"format": "pt"})
-    os.replace(tmp, out / WEIGHTS_NAME)
-    return out
-
-
 def load_appearance(directory: str | os.PathLike[str], *, dtype: torch.dtype | None = None,
                     config: TactileEncoderConfig | None = None) -> nn.Module:
     """The appearance branch saved in ``directory`` (the ViT or a backbone, as its config.json says); every key and
@@ -258,19 +248,45 @@ def load_appearance(directory: str | os.PathLike[str], *, dtype: torch.dtype | N
     A Hugging Face VideoMAE directory (config.json with ``"model_type": "videomae"``, as ``VideoMAEModel`` /
     ``VideoMAEForPreTraining`` / ``VideoMAEForVideoClassification.save_pretrained`` write it) is taken as it is, so a
     VideoMAE-Base needs no conversion: :func:`tacreasoner.model.videomae.videomae_appearance` builds the ViT."""
-    from tacreasoner.model.videomae import is_videomae_dir, videomae_appearance  # here: it imports this module
+    from tacreasoner.model.videomae import is_videomae_dir
 
     directory = Path(directory)
     if is_videomae_dir(directory):
         encoder = videomae_appearance(directory, config)
         return encoder.to(dtype) if dtype is not None else encoder
+    return load_checked(build_appearance(config or read_own_config(directory)), directory, dtype)
+
+
+def videomae_appearance(directory: str | os.PathLike[str], config: TactileEncoderConfig | None = None,
+                        ) -> AppearanceEncoder:
+    """The appearance ViT of a Hugging Face VideoMAE directory, shaped by its config.json and filled by
+    :func:`load_videomae`; the CLS token VideoMAE lacks starts from :data:`CLS_SEED`.
+
+    ``config`` overrides the shape read from config.json (e.g. another ``num_frames``: the weights do not depend
+    on it); the weights must still fit it, and the checkpoint must still be an RGB, exact-GELU VideoMAE.
+    """
+    from tacreasoner.model.videomae import (
+        CLS_SEED,
+        encoder_config_from_videomae,
+        load_videomae,
+        videomae_encoder_config,
+    )
+
+    directory = Path(directory)
     if config is None:
-        config = _read_config(directory)
-    model = build_appearance(config)
-    state = load_safetensors_strict(directory)
-    _check_state(model.state_dict(), state, directory / WEIGHTS_NAME)
-    model.load_state_dict(state)
-    return model.to(dtype) if dtype is not None else model
+        config = videomae_encoder_config(directory)
+    else:
+        path = directory / "config.json"
+        encoder_config_from_videomae(path)  # still a VideoMAE of RGB frames with exact GELU
+        if config.backbone != "vit":
+            raise ValueError(f"{path}: a VideoMAE checkpoint fills the ViT, not backbone {config.backbone!r}")
+    encoder = AppearanceEncoder(config)
+    fresh = load_videomae(encoder, directory)
+    if "cls_token" in fresh:
+        generator = torch.Generator().manual_seed(CLS_SEED)
+        with torch.no_grad():
+            encoder.cls_token.copy_(0.02 * torch.randn(encoder.cls_token.shape, generator=generator))
+    return encoder
 
 
 def read_appearance_config(directory: str | os.PathLike[str]) -> TactileEncoderConfig:
@@ -279,54 +295,7 @@ def read_appearance_config(directory: str | os.PathLike[str]) -> TactileEncoderC
     from tacreasoner.model.videomae import is_videomae_dir, videomae_encoder_config
 
     directory = Path(directory)
-    return videomae_encoder_config(directory) if is_videomae_dir(directory) else _read_config(directory)
-
-
-def _read_config(directory: Path) -> TactileEncoderConfig:
-    path = directory / CONFIG_NAME
-    data = read_json_object(path, "an AppearanceEncoder directory written by save_pretrained / "
-                                  "`tacreasoner pretrain-encoder`, or a Hugging Face VideoMAE directory")
-    if "model_type" in data:  # no field of ours: another Hugging Face model, which the key check would only list
-        raise ValueError(f"{path}: a Hugging Face {data['model_type']!r} model; the appearance branch takes a "
-                         f"`pretrain-encoder` / `encoder get` output or a VideoMAE directory")
-    return TactileEncoderConfig.from_dict(data, what=f"{path}: unknown encoder config keys")
-
-
-def load_safetensors_strict(directory: Path) -> dict[str, torch.Tensor]:
-    """``model.safetensors`` (or its sharded index) of ``directory``; never a pickle."""
-    from safetensors import SafetensorError
-    from safetensors.torch import load_file
-
-    single, index = directory / WEIGHTS_NAME, directory / f"{WEIGHTS_NAME}.index.json"
-    try:
-        if single.is_file():
-            return load_file(str(single))
-        if index.is_file():
-            shards = sorted(set(json.loads(index.read_text(encoding="utf-8"))["weight_map"].values()))
-            state: dict[str, torch.Tensor] = {}
-            for shard in shards:
-                state.update(load_file(str(directory / shard)))
-            return state
-    except (SafetensorError, OSError, ValueError, KeyError) as exc:
-        raise ValueError(f"{directory}: weights cannot be read ({exc})") from exc
-    pickles = [p.name for p in (directory / "pytorch_model.bin", directory / "model.pt") if p.is_file()]
-    if pickles:
-        raise ValueError(f"{directory}: only pickled weights ({', '.join(pickles)}); they are never unpickled here. "
-                         f"Convert them to {WEIGHTS_NAME} with safetensors where you trust the file")
-    raise FileNotFoundError(f"{single}: no such file")
-
-
-def _check_state(expected: dict[str, torch.Tensor], found: dict[str, torch.Tensor], where: Path) -> None:
-    missing = [k for k in expected if k not in found]
-    unexpected = [k for k in found if k not in expected]
-    if missing or unexpected:
-        parts = ([f"missing {', '.join(missing)}"] if missing else []) + \
-                ([f"unexpected {', '.join(unexpected)}"] if unexpected else [])
-        raise ValueError(f"{where}: weights do not match the config: {'; '.join(parts)}")
-    for key, tensor in expected.items():
-        if tuple(found[key].shape) != tuple(tensor.shape):
-            raise ValueError(f"{where}: {key} has shape {tuple(found[key].shape)}, the config needs "
-                             f"{tuple(tensor.shape)}")
+    return videomae_encoder_config(directory) if is_videomae_dir(directory) else read_own_config(directory)
 
 
 def num_parameters(module: nn.Module) -> int:

@@ -13,10 +13,8 @@ from tacreasoner.model.modeling import TacReasonerForCausalLM
 from tacreasoner.model.processing import PROCESSOR_CONFIG_NAME, TacReasonerProcessor
 from tacreasoner.model.tokenizer import TACTILE_PAD, prepare_tokenizer
 
-__all__ = ["UNTRAINED_TOKENS_FILE", "appearance_video_settings", "build_model", "load_model", "save_model",
-           "untrained_token_ids"]
+__all__ = ["appearance_video_settings", "build_model", "load_model", "save_model"]
 
-UNTRAINED_TOKENS_FILE = "untrained_tokens.json"
 
 
 def build_model(llm: str | os.PathLike[str] | PreTrainedModel, *, tokenizer: PreTrainedTokenizerBase | None = None,
@@ -24,7 +22,7 @@ def build_model(llm: str | os.PathLike[str] | PreTrainedModel, *, tokenizer: Pre
                 appearance: str | os.PathLike[str] | None = None, video: dict[str, Any] | None = None,
                 system_prompt: str | None = None, **llm_kwargs: Any,
                 ) -> tuple[TacReasonerForCausalLM, TacReasonerProcessor]:
-    """Wrap a causal LM (directory or hub id: the tiny one from ``pretrain-llm`` or a real Qwen2.5).
+    """Wrap a causal LM (a directory such as `llm get smollm2` writes, or a hub id such as a Qwen2.5).
 
     The tokenizer (``llm``'s own by default) gets the tactile token, reasoning tags and a chat
     template where missing; the rows of tokens it gains are recorded as ``new_token_ids`` so Stage I
@@ -38,7 +36,7 @@ def build_model(llm: str | os.PathLike[str] | PreTrainedModel, *, tokenizer: Pre
         tokenizer = AutoTokenizer.from_pretrained(llm)
     before = len(tokenizer)
     added = prepare_tokenizer(tokenizer)
-    new_ids = sorted({*range(before, before + added), *untrained_token_ids(llm)})
+    new_ids = list(range(before, before + added))
     model = TacReasonerForCausalLM.from_llm(
         llm, tactile_token_id=int(tokenizer.convert_tokens_to_ids(TACTILE_PAD)), vocab_size=len(tokenizer),
         new_token_ids=new_ids, encoder=encoder, appearance=appearance, **llm_kwargs)
@@ -69,27 +67,6 @@ def appearance_video_settings(appearance: str | os.PathLike[str]) -> dict[str, A
     else:
         return {}
     return {k: v for k, v in data.items() if k not in ("num_frames", "image_size")}
-
-
-def untrained_token_ids(llm: str | os.PathLike[str] | PreTrainedModel) -> list[int]:
-    """Token ids the LLM was never trained on, from ``untrained_tokens.json`` in its directory (if any).
-
-    ``pretrain-llm`` writes the file: the tiny LLM's BPE vocabulary has entries that never occur in its
-    corpus, whose embedding rows are untrained. Like tokens added here, they are "new" to the LLM, so the
-    tactile stages train their rows. A real checkpoint has no such file (every token was trained).
-    """
-    if isinstance(llm, PreTrainedModel):
-        return []
-    path = Path(llm) / UNTRAINED_TOKENS_FILE
-    if not path.is_file():
-        return []
-    from tacreasoner.jsonl import read_json_object
-
-    data = read_json_object(path, "a list of untrained token ids written by pretrain-llm")
-    ids = data.get("ids")
-    if not isinstance(ids, list) or not all(isinstance(i, int) and i >= 0 for i in ids):
-        raise ValueError(f"{path}: 'ids' must be a list of non-negative token ids")
-    return ids
 
 
 def save_model(model: Any, processor: TacReasonerProcessor, directory: str | os.PathLike[str]) -> Path:

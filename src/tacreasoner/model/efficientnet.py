@@ -24,6 +24,7 @@ from typing import Any
 import torch
 from torch import nn
 
+from tacreasoner.model.appearance_io import load_checked, read_own_config, save_appearance
 from tacreasoner.model.encoder_config import BACKBONE_LAYERS, TactileEncoderConfig
 from tacreasoner.model.video_processing import VideoProcessingConfig
 
@@ -115,19 +116,16 @@ class EfficientNetAppearance(nn.Module):
 
     # ------------------------------------------------------------------ save / load (as AppearanceEncoder)
     def save_pretrained(self, save_directory: str | os.PathLike[str]) -> Path:
-        from tacreasoner.model.appearance import save_appearance
-
         return save_appearance(self, save_directory)
 
     @classmethod
     def from_pretrained(cls, directory: str | os.PathLike[str], *, dtype: torch.dtype | None = None,
                         config: TactileEncoderConfig | None = None) -> EfficientNetAppearance:
-        from tacreasoner.model.appearance import load_appearance
-
-        model = load_appearance(directory, dtype=dtype, config=config)
-        if not isinstance(model, cls):
-            raise ValueError(f"{directory}: holds a {type(model).__name__}, not an EfficientNet backbone")
-        return model
+        directory = Path(directory)
+        config = config or read_own_config(directory)
+        if config.backbone != "efficientnet_lite0":
+            raise ValueError(f"{directory}: holds a {config.backbone} backbone, not an EfficientNet backbone")
+        return load_checked(cls(config), directory, dtype)
 
 
 def load_imagenet_weights(model: EfficientNetAppearance, path: str | os.PathLike[str] | None = None) -> dict[str, Any]:

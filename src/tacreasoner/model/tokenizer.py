@@ -1,12 +1,10 @@
-"""The tiny LLM's tokenizer: byte-level BPE trained on the project's own text, ChatML chat template.
+"""The project's tokens on any tokenizer (``prepare_tokenizer``), and a small ChatML tokenizer of its own.
 
-No pretrained tokenizer can be downloaded here, so the tiny default trains one (``train_tokenizer``) on
-the commonsense corpus plus the package's question, reasoning and prompt wording (``wording_texts``;
-``train.pretrain_llm.tokenizer_training_texts`` puts the two together, since the corpus belongs to the
-tiny LLM's pre-training): the words the model will read and write become single tokens, which keeps
-sequences short on a CPU. The special tokens and the template follow Qwen2.5 conventions, so the
-same downstream code works with a real Qwen2.5 tokenizer once ``prepare_tokenizer`` has added the
-project's own tokens to it.
+``prepare_tokenizer`` adds the tactile placeholder, the reasoning tags and a chat template to a pretrained
+tokenizer (SmolLM2's, Qwen2.5's). ``train_tokenizer`` trains a byte-level BPE with the same special tokens and
+template on given text (e.g. the package's question, reasoning and prompt wording, ``wording_texts``): a real
+tokenizer in milliseconds for tests and examples that must not download one. The special tokens and the template
+follow Qwen2.5 conventions, so both take the same downstream path.
 
 Conventions (same as Qwen2.5-Instruct): ``eos_token`` = ``<|im_end|>`` (generation stops at the end of
 the assistant turn), ``pad_token`` = ``<|endoftext|>``, no BOS token.

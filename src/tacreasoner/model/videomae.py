@@ -20,7 +20,8 @@ spellings are read: ``attention.attention.q_bias``/``v_bias`` (checkpoints on th
     layernorm.*   (absent with use_mean_pooling=True)          norm.*   (else kept fresh)
     —                                                          cls_token (always fresh)
 
-Such a directory is also accepted as ``model.appearance`` as it is (:func:`videomae_appearance`, which
+Such a directory is also accepted as ``model.appearance`` as it is
+(:func:`~tacreasoner.model.appearance.videomae_appearance`, which
 :func:`~tacreasoner.model.appearance.load_appearance` calls when config.json says ``"model_type": "videomae"``),
 and its image processor's normalisation becomes the model's frame preparation (:func:`videomae_video_settings`).
 """
@@ -35,13 +36,14 @@ from pathlib import Path
 from typing import Any
 
 import torch
+from torch import nn
 
 from tacreasoner.jsonl import read_json_object
-from tacreasoner.model.appearance import AppearanceEncoder, load_safetensors_strict
+from tacreasoner.model.appearance_io import load_safetensors_strict
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 
 __all__ = ["IMAGENET_MEAN", "IMAGENET_STD", "PREPROCESSOR_NAMES", "encoder_config_from_videomae", "is_videomae_dir",
-           "load_videomae", "map_videomae_key", "videomae_appearance", "videomae_encoder_config",
+           "load_videomae", "map_videomae_key", "videomae_encoder_config",
            "videomae_video_settings"]
 
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
@@ -104,8 +106,9 @@ def map_videomae_key(key: str) -> str | None:
     raise ValueError(f"VideoMAE key {key!r} has no counterpart in AppearanceEncoder (not a VideoMAE encoder?)")
 
 
-def load_videomae(encoder: AppearanceEncoder, path: str | os.PathLike[str]) -> list[str]:
-    """Copy a VideoMAE checkpoint's encoder weights into ``encoder``; returns our keys left freshly initialised.
+def load_videomae(encoder: nn.Module, path: str | os.PathLike[str]) -> list[str]:
+    """Copy a VideoMAE checkpoint's encoder weights into ``encoder`` (an
+    :class:`~tacreasoner.model.appearance.AppearanceEncoder`); returns our keys left freshly initialised.
 
     Nothing is written unless every key maps and every shape matches (the error names the key and
     both shapes). The sinusoid position table is fixed, so ``num_frames``/``image_size`` may differ
@@ -217,31 +220,6 @@ def videomae_encoder_config(directory: str | os.PathLike[str]) -> TactileEncoder
         return TactileEncoderConfig(**{**fields, "tokens_per_video": 1, "fusion_heads": 1})
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
-
-
-def videomae_appearance(directory: str | os.PathLike[str], config: TactileEncoderConfig | None = None,
-                        ) -> AppearanceEncoder:
-    """The appearance ViT of a Hugging Face VideoMAE directory, shaped by its config.json and filled by
-    :func:`load_videomae`; the CLS token VideoMAE lacks starts from :data:`CLS_SEED`.
-
-    ``config`` overrides the shape read from config.json (e.g. another ``num_frames``: the weights do not depend
-    on it); the weights must still fit it, and the checkpoint must still be an RGB, exact-GELU VideoMAE.
-    """
-    directory = Path(directory)
-    if config is None:
-        config = videomae_encoder_config(directory)
-    else:
-        path = directory / "config.json"
-        encoder_config_from_videomae(path)  # still a VideoMAE of RGB frames with exact GELU
-        if config.backbone != "vit":
-            raise ValueError(f"{path}: a VideoMAE checkpoint fills the ViT, not backbone {config.backbone!r}")
-    encoder = AppearanceEncoder(config)
-    fresh = load_videomae(encoder, directory)
-    if "cls_token" in fresh:
-        generator = torch.Generator().manual_seed(CLS_SEED)
-        with torch.no_grad():
-            encoder.cls_token.copy_(0.02 * torch.randn(encoder.cls_token.shape, generator=generator))
-    return encoder
 
 
 def videomae_video_settings(directory: str | os.PathLike[str]) -> dict[str, Any]:

@@ -78,6 +78,7 @@ def run_recipe(data: str | Path, out: str | Path, *, seeds: Sequence[int] = (0,)
     """Run the recipe (module doc); returns what ``recipe.json`` holds. ``encoder``: ``encoder get`` settings other
     than the chosen defaults (layer, size, frames, sampling, background)."""
     from tacreasoner.data.readers import read_physiclear
+    from tacreasoner.train.run import stage_done
 
     data, root = Path(data), Path(out)
     paths = RecipePaths(root, Path(llm) if llm is not None else root / "llm")
@@ -109,7 +110,7 @@ def run_recipe(data: str | Path, out: str | Path, *, seeds: Sequence[int] = (0,)
     for seed in seeds:
         cfg = recipe_config(paths, seed, config, overrides)
         for stage in (1, 2):
-            step(f"seed{seed}.stage{stage}", cfg.stage(stage).skip or _stage_done(cfg, stage),
+            step(f"seed{seed}.stage{stage}", cfg.stage(stage).skip or stage_done(cfg, stage),
                  lambda cfg=cfg, stage=stage: _train(cfg, stage))
     results: dict[str, Any] = record.setdefault("results", {})
     if evaluate and "val" in labelled:
@@ -147,11 +148,6 @@ def _build_bench(data: Path, out: Path) -> None:
     from tacreasoner.tasks.bench import build_bench
 
     build_bench("physiclear", data, out)
-
-
-def _stage_done(config: Any, stage: int) -> bool:
-    run = config.stage_dir(stage) / "run.json"
-    return run.is_file() and "steps_done" in json.loads(run.read_text())
 
 
 def _train(config: Any, stage: int) -> None:

@@ -20,11 +20,11 @@ from typing import Any
 import numpy as np
 
 from tacreasoner.data.cues import detect_phases, frame_signals
-from tacreasoner.data.video import probe_video, read_video, write_video
 from tacreasoner.serve.engine import Prompt, Reply, RequestError, Sampling, TactileEngine, check_clip_length
 from tacreasoner.serve.media import MediaLimits
 from tacreasoner.serve.stream import Delta
 from tacreasoner.tasks.schema import PLACEHOLDER
+from tacreasoner.video_io import probe_video, read_video, write_video
 
 __all__ = ["EXAMPLES", "EXAMPLE_CHOICES", "DemoCallbacks", "build_demo", "chosen_clips", "clip_views",
            "example_clips", "heat_figure", "latest_upload", "question_for", "read_clips"]

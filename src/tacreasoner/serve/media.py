@@ -22,9 +22,9 @@ from urllib.parse import unquote, urlparse
 
 import numpy as np
 
-from tacreasoner.data.video import VideoError, read_video
 from tacreasoner.serve.engine import Prompt, RequestError, check_clip_length
 from tacreasoner.tasks.schema import PLACEHOLDER
+from tacreasoner.video_io import VideoError, read_video
 
 __all__ = ["MediaLimits", "decode_video_bytes", "messages_to_prompt", "video_data_url"]
 

@@ -1,9 +1,7 @@
 """Everyday objects besides the simulator's catalogue, with their typical property ranks (``everyday_objects.yaml``).
 
-Two readers need them: the evaluation's hallucination check counts their names as known objects (a model may
-bring one into its reasoning that no clip shows), and the tiny LLM's commonsense corpus (``knowledge``) states
-their facts. The file is read and checked here, in the tasks layer, so the evaluation does not depend on the
-corpus.
+The evaluation's hallucination check counts their names as known objects: a model may bring one into its
+reasoning that no clip shows, and naming a real object is not inventing one.
 """
 
 from __future__ import annotations

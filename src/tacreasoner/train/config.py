@@ -42,7 +42,7 @@ DTYPES = ("float32", "bfloat16", "float16", "auto")
 @dataclass
 class ModelSettings:
     llm: str = "runs/llm"
-    """Causal LM directory or hub id: ``pretrain-llm`` output, or e.g. Qwen/Qwen2.5-7B-Instruct."""
+    """Causal LM directory or hub id: ``llm get smollm2`` output, or e.g. Qwen/Qwen2.5-7B-Instruct."""
     appearance: str | None = None
     """``pretrain-encoder`` / ``encoder get`` output directory, or a Hugging Face VideoMAE directory as it is (or null:
     a randomly initialised appearance ViT)."""
@@ -366,7 +366,7 @@ class TrainConfig:
         return config
 
 
-SHIPPED_CONFIGS = ("physiclear-smollm2-cpu",)
+SHIPPED_CONFIGS = ("quickstart-smollm2-cpu", "physiclear-smollm2-cpu")
 """Training configs inside the package (``--config NAME`` works from any directory)."""
 
 
@@ -383,7 +383,7 @@ def load_train_config(path: str | Path, overrides: dict[str, Any] | None = None)
     if not path.is_file() and path.parent == Path(".") and shipped_config(path.stem) is not None:
         path = shipped_config(path.stem)  # a config that ships with the package, by name
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such training config (see configs/tiny-cpu.yaml, or a shipped one by "
+        raise FileNotFoundError(f"{path}: no such training config (a YAML file, or a shipped one by "
                                 f"name: {', '.join(SHIPPED_CONFIGS)})")
     data, lines = read_yaml(path)
     if data is None:

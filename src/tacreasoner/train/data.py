@@ -29,9 +29,10 @@ from typing import Any
 import numpy as np
 import torch
 
+from tacreasoner.cot.rulebank import RulesBank, load_bank
 from tacreasoner.model.processing import IGNORE_INDEX
 from tacreasoner.model.video_processing import sensor_index
-from tacreasoner.tasks.schema import TFA_TASKS, QAItem, VideoRef
+from tacreasoner.tasks.schema import PLACEHOLDER, TFA_TASKS, QAItem, VideoRef
 
 __all__ = ["STAGE1_TASKS", "TrainExample", "VideoBank", "batch_plan", "batch_purity", "load_examples",
            "padding_fraction", "tokenize_examples"]
@@ -167,9 +168,29 @@ def _answer_only(item: QAItem) -> str:
     return f"<answer>{item.answer}</answer>"
 
 
-def _video_readings(items: Sequence[QAItem], root: Path) -> list[TrainExample]:
-    from tacreasoner.train.rehearsal import reading_question, reading_word, video_reading_items
+def reading_question(n_videos: int, video: int, attribute: str) -> str:
+    """A question about one video (from 1) of several: what Stage I's video readings ask
+    (``data.stage1_video_readings``)."""
+    return "\n".join([PLACEHOLDER] * n_videos) + f"\nHow does Video {video} feel in {attribute}?"
 
+
+def reading_word(attribute: str, rank: int, bank: RulesBank | None = None) -> str:
+    """The answer to a reading question: the teacher's first descriptor of that level."""
+    return (bank or load_bank()).data["descriptors"][attribute][int(rank)][0]
+
+
+def video_reading_items(items: Sequence[Any]) -> list[tuple[Any, int]]:
+    """(item, video index) for every video of every SFD/SOI item with per-video levels."""
+    out = []
+    for item in items:
+        ranks = item.meta.get("ranks")
+        if item.task in ("SFD", "SOI") and isinstance(ranks, list) and len(ranks) == len(item.videos) \
+                and all(isinstance(r, int) for r in ranks) and item.meta.get("attribute"):
+            out += [(item, v) for v in range(len(ranks))]
+    return out
+
+
+def _video_readings(items: Sequence[QAItem], root: Path) -> list[TrainExample]:
     out = []
     for item, v in video_reading_items(items):
         attribute, ranks = item.meta["attribute"], item.meta["ranks"]
@@ -310,26 +331,31 @@ class VideoBank:
                                     dtype=torch.long)
 
     @torch.no_grad()
-    def cache_appearance(self, tactile_encoder: Any, batch_size: int = 64,
-                         cache_dir: str | Path | None = None) -> torch.Tensor | None:
+    def cache_appearance(self, tactile_encoder: Any, batch_size: int = 64, cache_dir: str | Path | None = None,
+                         progress: Callable[[int, int], None] | None = None) -> torch.Tensor | None:
         """Run the frozen appearance branch once over every video (identical to running it each step); returns the
         tokens before standardisation. ``cache_dir`` keeps them on disk, keyed by the video and by the branch's
         weights and pooling, so the next stage, seed or variant on the same encoder reads them back."""
         if self.pixels is None:
             return None
-        raw = self.appearance_tokens(tactile_encoder, batch_size, standardized=False, cache_dir=cache_dir)
+        raw = self.appearance_tokens(tactile_encoder, batch_size, standardized=False, cache_dir=cache_dir,
+                                     progress=progress)
         self.appearance = tactile_encoder.standardize(raw)
         return raw
 
     @torch.no_grad()
     def appearance_tokens(self, tactile_encoder: Any, batch_size: int = 64, *, standardized: bool = True,
-                          cache_dir: str | Path | None = None) -> torch.Tensor:
-        """The frozen appearance branch's tokens (``appearance_tokens``) of every video of the bank, in its order."""
+                          cache_dir: str | Path | None = None,
+                          progress: Callable[[int, int], None] | None = None) -> torch.Tensor:
+        """The frozen appearance branch's tokens (``appearance_tokens``) of every video of the bank, in its order;
+        ``progress(done, total)`` after each batch (a pretrained backbone over every clip takes minutes on a CPU)."""
         assert self.pixels is not None
         keys = sorted(self.index, key=self.index.__getitem__)
         files = _appearance_files(keys, self.video_config, tactile_encoder, cache_dir)
         cached = [_load_cached(f) for f in files]
         todo = [i for i, hit in enumerate(cached) if hit is None]
+        if progress is not None:
+            progress(len(cached) - len(todo), len(cached))
         param = next(tactile_encoder.appearance.parameters())
         for start in range(0, len(todo), batch_size):
             chunk = todo[start:start + batch_size]
@@ -338,6 +364,8 @@ class VideoBank:
             for i, array in zip(chunk, tokens, strict=True):
                 cached[i] = array
                 _save_array(files[i], array)
+            if progress is not None:
+                progress(len(cached) - len(todo) + start + len(chunk), len(cached))
         raw = torch.from_numpy(np.stack(cached)).to(param.dtype)
         return tactile_encoder.standardize(raw) if standardized else raw
 

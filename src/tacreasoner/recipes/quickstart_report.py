@@ -1,0 +1,173 @@
+"""The quickstart's last stages: every seed's model answers the held-out test objects, one report with mean ± std
+over seeds beside the model-free baselines, and one question asked the way a user would ask it."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from tacreasoner.recipes.quickstart_parts import QuickstartPaths
+
+__all__ = ["QuickstartReport", "ask_one_test_clip", "evaluate_and_report", "evaluate_seeds", "results_table"]
+
+
+def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tuple[str, ...] = ("test",), *,
+                   batch_size: int = 48, max_new_tokens: int = 256, video_cache: Path | None = None,
+                   progress: Callable[[str], Callable[[int, int], None]] | None = None) -> dict[str, Any]:
+    """Answer each split with each seed's model; one report per split (mean ± std over seeds)."""
+    from tacreasoner.evaluate.predict import answerer_id, load_trained, predict_items, set_aside_stale
+    from tacreasoner.evaluate.report import evaluate
+    from tacreasoner.tasks.bench import load_bench
+    from tacreasoner.train.data import bench_video_root
+
+    reports: dict[str, Any] = {}
+    for split in splits:
+        info, items = load_bench(bench, split)
+        files = []
+        for seed, model_dir in sorted(models.items()):
+            path = out / split / "predictions" / f"seed{seed}.jsonl"
+            who = answerer_id(model_dir, bench)
+            set_aside_stale(path, who)
+            if not _complete(path, len(items)):
+                model, processor = load_trained(model_dir)
+                predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
+                              max_new_tokens=max_new_tokens, video_cache=video_cache, answered_by=who,
+                              progress=None if progress is None else progress(f"{split}, seed {seed}"))
+            files.append(path)
+        reports[split] = evaluate(items, files, "strict", out / split)
+    return reports
+
+
+def _complete(path: Path, n: int) -> bool:
+    return path.is_file() and sum(1 for line in path.open(encoding="utf-8") if line.strip()) >= n
+
+
+def publish_model(model_dir: Path, target: Path) -> Path:
+    """Copy the seed-0 model to ``target`` (what ``tacreasoner ask`` uses by default)."""
+    if target.exists():
+        shutil.rmtree(target)
+    shutil.copytree(model_dir, target)
+    return target
+
+
+@dataclass
+class QuickstartReport:
+    path: Path
+    summary_lines: list[str]
+    beats_chance: dict[str, dict[str, bool]]
+
+
+def _baseline_accuracy(root: Path, kind: str) -> dict[str, float]:
+    path = root / "baselines" / kind / "report.json"
+    if not path.is_file():
+        return {}
+    return {t["task"]: t["accuracy"] for t in json.loads(path.read_text(encoding="utf-8"))["tasks"]}
+
+
+def results_table(report: Any, baselines: dict[str, dict[str, float]]) -> tuple[list[str], dict[str, bool]]:
+    """Markdown rows: per task, the model (mean ± std over seeds, Wilson CI), baselines, chance, verdict.
+
+    "Beats chance" means the Wilson 95% lower bound is above the task's chance level.
+    """
+    head = ["Task", "n", "Model (mean ± std)", "95% CI", "Parse fail", *[f"{k.capitalize()}" for k in baselines],
+            "Chance", "Beats chance"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "|".join(["---"] + ["---:"] * (len(head) - 1)) + "|"]
+    verdict = {}
+    for r in report.tasks:
+        verdict[r.task] = bool(r.ci_low > r.chance)
+        std = "" if r.std is None or r.std != r.std else f" ± {100 * r.std:.1f}"
+        cells = [r.task, str(r.n), f"{100 * r.mean:.1f}{std}", f"{100 * r.ci_low:.1f}–{100 * r.ci_high:.1f}",
+                 f"{100 * r.parse_failure_rate:.1f}",
+                 *[f"{100 * b[r.task]:.1f}" if r.task in b else "–" for b in baselines.values()],
+                 f"{100 * r.chance:.1f}", "yes" if verdict[r.task] else "**no**"]
+        lines.append("| " + " | ".join(cells) + " |")
+    avg = report.average
+    std = "" if avg.get("std") is None or avg["std"] != avg["std"] else f" ± {100 * avg['std']:.1f}"
+    lines.append(f"| **Average** | | **{100 * avg['value']:.1f}{std}** | | | " + " | ".join("" for _ in baselines)
+                 + " | | |")
+    return lines, verdict
+
+
+def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings: dict[str, Any], *,
+                        batch_size: int = 48, max_new_tokens: int = 64,
+                        progress: Callable[[str], Callable[[int, int], None]] | None = None) -> QuickstartReport:
+    """Evaluate every seed's model on the test split(s) and write ``report.md`` + ``report.json``."""
+    import platform
+    from datetime import datetime, timezone
+
+    splits = ("test", "test_heldout_sensor") if (paths.bench / "test_heldout_sensor.jsonl").is_file() else ("test",)
+    started = time.perf_counter()
+    reports = evaluate_seeds(models, paths.bench, paths.evaluation, splits, batch_size=batch_size,
+                             max_new_tokens=max_new_tokens, progress=progress, video_cache=paths.video_cache)
+    eval_seconds = round(time.perf_counter() - started, 1)
+    baselines = {k: _baseline_accuracy(paths.root, k) for k in ("random", "majority")}
+    baselines = {k: v for k, v in baselines.items() if v}
+    lines = ["# Quickstart results: TacReasoner (SmolLM2-135M-Instruct) on DynTAC-Sim-Bench", "",
+             f"- Date: {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}",
+             f"- Machine: {platform.processor() or platform.machine()}, {_cores()} cores, Python "
+             f"{platform.python_version()}",
+             "- Command: `tacreasoner quickstart`",
+             f"- Seeds: {sorted(models)} (Stage I + Stage II trained per seed); training seconds per seed: "
+             f"{json.dumps(timings)}; evaluation {eval_seconds} s",
+             "", "DynTAC-Sim-Bench is simulated: the project's stand-in for the paper's DynTAC-Bench, not its data. "
+             "No val or test clip was seen in any training: the appearance encoder holds ImageNet weights "
+             "(EfficientNet-Lite0) and trained on no tactile clip; Stages I and II read only train objects. "
+             "The model carries the optional read-out heads (fitted out of fold on the training clips); the paper's "
+             "core model without them is measured beside it in the project's benchmarks/results/quickstart_recipe.md. "
+             "TSA (scenario choice) is zero-shot: never trained on. Strict answer extraction: a reply not in the "
+             "asked `<answer>…</answer>` form counts as wrong.", ""]
+    summary, verdicts = [], {}
+    for split, report in reports.items():
+        rows, verdict = results_table(report, baselines if split == "test" else {})
+        verdicts[split] = verdict
+        title = "Held-out test objects" if split == "test" else "Held-out test objects, held-out sensor style"
+        lines += [f"## {title} (`{split}`)", "", *rows, ""]
+        weak = [t for t, ok in verdict.items() if not ok]
+        summary.append(f"{split}: Average {100 * report.average['value']:.1f}% over {len(report.tasks)} tasks; "
+                       + ("every task above chance (Wilson lower bound)" if not weak else
+                          f"not above chance: {', '.join(weak)}"))
+    lines += ["Per-item predictions: `eval/<split>/predictions/seed*.jsonl`; full reports with plots: "
+              "`eval/<split>/report.md`.", ""]
+    path = paths.root / "report.md"
+    path.write_text("\n".join(lines), encoding="utf-8")
+    (paths.root / "report.json").write_text(json.dumps(
+        {"splits": {s: r.to_dict() for s, r in reports.items()}, "beats_chance": verdicts, "timings": timings,
+         "eval_seconds": eval_seconds, "seeds": sorted(models)}, indent=2, default=str) + "\n", encoding="utf-8")
+    if models:
+        publish_model(Path(models[min(models)]), paths.model)
+    return QuickstartReport(path, summary, verdicts)
+
+
+def _cores() -> int:
+    import os
+
+    return os.cpu_count() or 1
+
+
+def _as_typed(path: Path) -> str:
+    """The path as a user in this directory would type it, so the printed command can be pasted."""
+    try:
+        return str(Path(path).resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path)
+
+
+def ask_one_test_clip(paths: QuickstartPaths, max_new_tokens: int = 64) -> list[str]:
+    """Ask the published model one real-or-fake question about a held-out test clip."""
+    from tacreasoner.evaluate.predict import load_trained
+    from tacreasoner.tasks.bench import load_bench
+    from tacreasoner.train.data import bench_video_root
+
+    info, items = load_bench(paths.bench, "test")
+    item = next((i for i in items if i.task == "RFOR"), items[0])
+    video = bench_video_root(paths.bench, info) / str(item.videos[0].path)
+    model, processor = load_trained(paths.model)
+    reply = model.answer(processor, item.question, [str(video)], max_new_tokens=max_new_tokens)
+    return [f"$ tacreasoner ask --model {_as_typed(paths.model)} {json.dumps(item.question)} "
+            f"--video {_as_typed(video)}",
+            *([f"think:  {reply.think}"] if reply.think else []), f"answer: {reply.answer}   (gold: {item.answer})"]
