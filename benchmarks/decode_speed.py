@@ -6,9 +6,9 @@ both ways on the same clips in one run (alternating which goes first) and checks
 pixels: simulated GelSight-Mini clips (H.264) and PhysiCLeAR clips (MPEG-4) when ../shared is present.
 
 Each set is timed twice: on a quiet machine, and with one core kept busy by a single-threaded matmul loop in
-another process, as during the quickstart (the tiny LLM pre-trains in the background while the data stages
-decode). Setting up a swscale context is cheap on an idle machine but slow when the cores are contended, so
-the per-frame way suffers most exactly where the quickstart runs it.
+another process, as when training or another job shares the cores (the former quickstart pre-trained its tiny
+LLM in the background while its data stages decoded). Setting up a swscale context is cheap on an idle machine but
+slow when the cores are contended, so the per-frame way suffers most exactly where decoding shares the machine.
 
     python benchmarks/decode_speed.py [--sim-clips 12 --physiclear-clips 12 --rounds 3]
 """

@@ -25,6 +25,7 @@ import resource
 import statistics
 import subprocess
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -32,13 +33,62 @@ import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, publish, stamp
-from model_overhead import make_batch, step_fn, time_steps
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.modeling import TacReasonerForCausalLM
 from tacreasoner.model.stages import LoraSettings, configure_stage
 
 VARIANTS = ("bare SmolLM2 + LoRA", "TacReasoner Stage II (appearance cached)", "TacReasoner Stage II (no cache)",
             "TacReasoner Stage I")
+
+
+def make_batch(batch: int, tpv: int, question: int, answer: int, seed: int, vocab: int,
+               tactile_id: int) -> dict[str, torch.Tensor]:
+    """Samples with 1, 2, 3 videos in turn: question, placeholder runs, answer; loss on the answer only."""
+    g = torch.Generator().manual_seed(seed)
+    rows, labels, n_videos = [], [], 0
+    for i in range(batch):
+        k = 1 + i % 3
+        n_videos += k
+        q = torch.randint(10, vocab - 10, (question,), generator=g)
+        a = torch.randint(10, vocab - 10, (answer,), generator=g)
+        ids = torch.cat([q, torch.full((k * tpv,), tactile_id), a])
+        rows.append(ids)
+        labels.append(torch.cat([torch.full((question + k * tpv,), -100), a]))
+    width = max(len(r) for r in rows)
+    input_ids = torch.zeros(batch, width, dtype=torch.long)
+    label_ids = torch.full((batch, width), -100, dtype=torch.long)
+    mask = torch.zeros(batch, width, dtype=torch.long)
+    for i, (r, lab) in enumerate(zip(rows, labels, strict=True)):
+        input_ids[i, : len(r)], label_ids[i, : len(r)], mask[i, : len(r)] = r, lab, 1
+    return {"input_ids": input_ids, "attention_mask": mask, "labels": label_ids, "n_videos": n_videos}
+
+
+def step_fn(module: torch.nn.Module, inputs: dict, lr: float = 1e-4) -> Callable[[], float]:
+    """One training step (forward, backward, AdamW) on ``inputs``, timed: a function returning its seconds."""
+    params = [p for p in module.parameters() if p.requires_grad]
+    opt = torch.optim.AdamW(params, lr=lr)
+
+    def step() -> float:
+        t0 = time.perf_counter()
+        loss = module(**inputs).loss
+        loss.backward()
+        opt.step()
+        opt.zero_grad(set_to_none=True)
+        return time.perf_counter() - t0
+
+    return step
+
+
+def time_steps(steps: dict[str, Callable[[], float]], n: int, warmup: int = 2) -> dict[str, list[float]]:
+    """``n`` timed rounds of every step function, round robin, after ``warmup`` untimed ones each."""
+    for fn in steps.values():
+        for _ in range(warmup):
+            fn()
+    times: dict[str, list[float]] = {k: [] for k in steps}
+    for _ in range(n):
+        for name, fn in steps.items():
+            times[name].append(fn())
+    return times
 
 
 class BareLoss(torch.nn.Module):

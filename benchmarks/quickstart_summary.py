@@ -57,6 +57,7 @@ def main() -> None:
                                              '.venv/bin/tacreasoner quickstart (from a fresh clone, fresh virtual '
                                              'environment)')
     parser.add_argument("--title", default="Quickstart: the whole pipeline from a fresh clone")
+    parser.add_argument("--target-minutes", type=float, default=None, help="The wall-time bar to state beside it.")
     args = parser.parse_args()
     stages, total, ask = parse_log(args.log.read_text(encoding="utf-8", errors="replace"))
     if not stages:
@@ -69,11 +70,12 @@ def main() -> None:
     md = header_md(args.title, info)
     md += (f"**Wall time: {stage_total / 60:.1f} min for the quickstart's stages**"
            + (f"; {total / 60:.1f} min including creating the virtual environment and installing" if total else "")
-           + ". Target: ≤ 20 minutes on 2 CPU cores.\n\n" + (f"Note: {args.note}\n\n" if args.note else ""))
+           + (f". Target: ≤ {args.target_minutes:g} minutes." if args.target_minutes else ".") + "\n\n"
+           + (f"Note: {args.note}\n\n" if args.note else ""))
     md += md_table(["stage", "what", "seconds"], [[s["stage"], s["purpose"], s["seconds"] or "–"] for s in stages])
     if ask:
         md += "\nThe `ask` stage (one held-out test clip):\n\n```\n" + "\n".join(ask) + "\n```\n"
-    md += "\n---\n\nThe run's own report (`runs/quickstart/report.md`):\n\n" + report.replace("# ", "## ", 1)
+    md += f"\n---\n\nThe run's own report (`{args.run / 'report.md'}`):\n\n" + report.replace("# ", "## ", 1)
     publish(args.name, {**info, "note": args.note, "stages": stages, "stage_seconds": stage_total,
                            "total_seconds": total, "ask": ask, "results": results}, md)
 

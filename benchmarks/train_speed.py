@@ -1,4 +1,4 @@
-"""Seconds per training step of the tiny default, before and after the CPU speed-ups, measured side by side.
+"""Seconds per training step of the quickstart's recipe, before and after the CPU speed-ups, side by side.
 
 Usage (after `tacreasoner quickstart`, whose data, LLM, encoder and Stage I model it trains on):
 
@@ -11,11 +11,13 @@ machine load. Variants:
 
 - ``before``: sdpa attention, the LM head over every position, ``nn.Dropout`` in LoRA (the settings up to
   2026-11-24);
-- ``after``: eager attention, the LM head on labelled positions only (``loss_only``), ``CpuDropout`` (now);
+- ``after``: eager attention, the LM head on labelled positions only (``loss_only``), ``CpuDropout`` (the tiny
+  default's settings from then on; the SmolLM2 quickstart config keeps ``loss_only`` and ``CpuDropout`` and chose sdpa);
 - ``after, sdpa`` / ``after, full head`` / ``after, nn.Dropout``: ``after`` with one change undone, to show
   what each is worth. (Stage I has no LoRA, so no dropout variant.)
 
-The first 5 steps (warm-up) are not counted. Results: benchmarks/results/train_speed.{json,md}.
+The first 5 steps (warm-up) are not counted. Results: benchmarks/results/train_speed.{json,md} (its 2026-11-25 figures
+are the tiny default's, before the quickstart moved to SmolLM2).
 """
 
 from __future__ import annotations
@@ -96,11 +98,11 @@ class Switch:
 
 
 def run_stage(run: Path, stage: int, steps: int, work: Path) -> dict[str, list[float]]:
-    from tacreasoner.train.quickstart import QuickstartPaths, quickstart_config
+    from tacreasoner.recipes.quickstart import QuickstartPaths, quickstart_config
     from tacreasoner.train.trainer import train_stage
 
     paths = QuickstartPaths(run)
-    config = quickstart_config(paths, 0, output_dir=work / f"stage{stage}_run")
+    config = quickstart_config(paths, 0, overrides={"output_dir": str(work / f"stage{stage}_run")})
     config.runtime.log_with, config.runtime.progress = "none", False
     config.runtime.log_every, config.runtime.checkpoint_every = 1, 10**9
     config.stage(stage).steps = steps
@@ -137,7 +139,7 @@ def main() -> None:
                                                   "median_s": statistics.median(values), "vs_before": mean / base}
                 rows.append([f"Stage {'I' if stage == 1 else 'II'}", name, len(values), round(mean, 4),
                              round(statistics.median(values), 4), f"{mean / base:.2f}"])
-    md = header_md("Training step time of the tiny default: CPU speed-ups side by side", info)
+    md = header_md("Training step time of the quickstart's recipe: CPU speed-ups side by side", info)
     md += (f"Run: `{args.run}` (the quickstart's data, LLM, encoder and Stage I model); the quickstart's settings, "
            f"{args.steps} steps per stage with the variant switched at every step (round robin), the first {WARMUP} "
            "not counted. `before`: sdpa attention, LM head over every position, `nn.Dropout` in LoRA; `after`: "

@@ -1,17 +1,12 @@
-"""Helpers of the evaluation tests: an untrained tiny model saved the way `train` saves one, and benchmark scripts
-imported as modules."""
+"""Helper of the evaluation tests: an untrained tiny model saved the way `train` saves one."""
 
 from __future__ import annotations
 
-import importlib
-import sys
 from collections.abc import Sequence
 from pathlib import Path
-from types import ModuleType
 
 import torch
 
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
 ENCODER = {"num_frames": 4, "image_size": [32, 32], "patch_size": 8, "hidden_size": 32, "num_layers": 1,
            "num_heads": 2, "temporal_hidden_size": 32, "temporal_tokens": 2, "fusion_heads": 2, "tokens_per_video": 3}
 
@@ -35,12 +30,3 @@ def save_untrained_model(texts: Sequence[str], root: Path, vocab_size: int = 500
     model, processor = build_model(root / "llm", encoder=ENCODER)
     return save_model(model, processor, root / "model")
 
-
-def benchmark_module(name: str) -> ModuleType:
-    """``benchmarks/<name>.py`` as a module (the scripts import their neighbours, so their folder goes on the path
-    while it loads)."""
-    sys.path.insert(0, str(BENCHMARKS))
-    try:
-        return importlib.import_module(name)
-    finally:
-        sys.path.remove(str(BENCHMARKS))

@@ -1,10 +1,9 @@
 """The removed-touch control: blank and shuffled tactile input to predict_items, the evaluate --touch flag, and the
-benchmark script's table (benchmarks/touch_control.py)."""
+control's table and run (tacreasoner.evaluate.touch_control, published by benchmarks/touch_control.py)."""
 
 from __future__ import annotations
 
 import json
-import sys
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -13,6 +12,7 @@ import pytest
 import torch
 from typer.testing import CliRunner
 
+from tacreasoner.evaluate import touch_control
 from tacreasoner.evaluate.predict import (
     TOUCH_MODES,
     blank_video,
@@ -26,7 +26,7 @@ from tacreasoner.evaluate.predict import (
 from tacreasoner.tasks.bench import BENCH_VERSION, load_bench
 from tacreasoner.tasks.schema import QAItem
 from tacreasoner.train.data import bench_video_root, video_key
-from tests.evaluate.evalsetup import benchmark_module, save_untrained_model
+from tests.evaluate.evalsetup import save_untrained_model
 
 
 @pytest.fixture(scope="module")
@@ -251,7 +251,7 @@ def test_predictions_change_with_the_touch_and_modes_are_not_mixed(loaded, chose
         predict_items(model, loaded[1], items, root, old, video_cache=cache, touch="blank")
 
 
-# ------------------------------------------------------------------------------------------ CLI and script
+# ------------------------------------------------------------------------------------------ CLI
 
 
 def test_evaluate_touch_flag_keeps_the_modes_side_by_side(model_dir: Path, bench: Path, tmp_path: Path) -> None:
@@ -330,9 +330,7 @@ def test_stale_predictions_are_set_aside_not_resumed(tmp_path: Path) -> None:
     assert set_aside_stale(path, "me") == moved and not path.exists()
 
 
-@pytest.fixture(scope="module")
-def touch_control() -> Any:
-    return benchmark_module("touch_control")
+# ------------------------------------------------------------------------------- the control's table and run
 
 
 def _records(task: str, correct: list[bool], prefix: str = "") -> list[dict]:
@@ -340,7 +338,7 @@ def _records(task: str, correct: list[bool], prefix: str = "") -> list[dict]:
             for n, c in enumerate(correct)]
 
 
-def test_touch_table_from_scored_records(touch_control: Any) -> None:
+def test_touch_table_from_scored_records() -> None:
     from tacreasoner.evaluate.stats import mcnemar_exact
     from tacreasoner.intervals import wilson_interval
 
@@ -378,18 +376,23 @@ def test_touch_table_from_scored_records(touch_control: Any) -> None:
         touch_control.touch_table(records | {"blank": _records("TFA-hardness", blank, prefix="x")})
 
 
-def test_touch_control_script_runs_end_to_end(touch_control: Any, model_dir: Path, bench: Path, tmp_path: Path,
-                                              monkeypatch: pytest.MonkeyPatch) -> None:
-    results = tmp_path / "results"
-    monkeypatch.setattr(sys, "argv", ["touch_control.py", "--model", str(model_dir), "--bench", str(bench),
-                                      "--split", "val", "--out", str(tmp_path / "out"), "--limit", "4",
-                                      "--max-new-tokens", "2", "--results-dir", str(results)])
-    touch_control.main()
-    payload = json.loads((results / "touch_control.json").read_text())
+def test_the_control_runs_the_three_modes_the_predictions_know() -> None:
+    assert touch_control.MODES == TOUCH_MODES
+
+
+def test_touch_control_runs_end_to_end(model_dir: Path, bench: Path, tmp_path: Path) -> None:
+    said: list[str] = []
+    control = touch_control.run_touch_control(model_dir, bench, "val", tmp_path / "out", limit=4, max_new_tokens=2,
+                                              device="cpu", say=said.append)
+    assert [line.split(":")[0] for line in said] == list(TOUCH_MODES)
+    payload = json.loads(json.dumps(control.to_dict()))
     assert payload["split"] == "val" and payload["n_items"] == 4 and payload["model"] == str(model_dir)
-    assert {"date", "command", "machine", "device"} <= set(payload)
+    assert payload["device"] == "cpu" and set(payload["reports"]) == set(TOUCH_MODES)
     assert sum(r["n"] for r in payload["table"]["tasks"]) == 4
-    md = (results / "touch_control.md").read_text()
-    assert "Removed-touch control" in md and "p real vs blank" in md and "split **val**" in md
+    md = control.markdown()
+    assert "p real vs blank" in md and "split **val**" in md and "4 items (--limit)" in md
     for touch in TOUCH_MODES:
         assert predictions_path(tmp_path / "out", "val", touch).is_file()
+        assert control.predictions[touch] == predictions_path(tmp_path / "out", "val", touch)
+    with pytest.raises(ValueError, match="limit must be at least 1"):
+        touch_control.run_touch_control(model_dir, bench, "val", tmp_path / "out", limit=0)

@@ -1,18 +1,14 @@
-"""The TSA ceiling benchmark's text (benchmarks/tsa_ceiling.py): each video becomes the words the condition allows."""
+"""The TSA ceiling (tacreasoner.evaluate.tsa_ceiling): each video becomes the words the condition allows; its table."""
 
 from __future__ import annotations
 
-from typing import Any
+from pathlib import Path
 
 import pytest
 
+from tacreasoner.evaluate import tsa_ceiling
+from tacreasoner.evaluate.tsa_ceiling import TsaCeiling
 from tacreasoner.tasks.schema import QAItem, VideoRef
-from tests.evaluate.evalsetup import benchmark_module
-
-
-@pytest.fixture(scope="module")
-def tsa_ceiling() -> Any:
-    return benchmark_module("tsa_ceiling")
 
 
 def _item(question: str) -> QAItem:
@@ -27,7 +23,7 @@ LABELS = {"mini/obj0_0": {"vtv150k": {"hardness": 0, "protrusion": 1, "elasticit
           "mini/obj1_0": {"vtv150k": {"hardness": 2, "protrusion": 0, "elasticity": 0, "friction": 2}}}
 
 
-def test_each_condition_describes_each_video_in_order(tsa_ceiling: Any) -> None:
+def test_each_condition_describes_each_video_in_order() -> None:
     item = _item("<tactile>\n<tactile>\nYou need an object for scraping ice. Which is better? (A) ... (B) ...")
     none = tsa_ceiling.textual_question(item, "none", LABELS)
     assert none.startswith("an object\nan object\nYou need")
@@ -38,3 +34,20 @@ def test_each_condition_describes_each_video_in_order(tsa_ceiling: Any) -> None:
     assert first == ("an object (hardness: highly deformable; protrusion: moderate protrusion; elasticity: strong "
                      "elasticity; friction: slight friction)")
     assert "friction: strong friction" in second and "<tactile>" not in every
+    with pytest.raises(ValueError, match="condition must be one of none, needed, all"):
+        tsa_ceiling.textual_question(item, "some", LABELS)
+
+
+def test_the_table_marks_a_lower_bound_above_chance() -> None:
+    def way(k: int, n: int, low: float, high: float) -> dict:
+        return {"correct": k, "accuracy": k / n, "wilson": [low, high]}
+
+    row = {"split": "val", "condition": "needed", "n": 50, "strict": way(0, 50, 0.0, 0.07),
+           "lenient": way(20, 50, 0.28, 0.54), "logprob": way(40, 50, 0.67, 0.89), "ordinal": way(25, 50, 0.37, 0.63)}
+    ceiling = TsaCeiling(llm=Path("llm"), bench=Path("bench"), threads=1, max_new_tokens=8, seconds=3.0,
+                         results={"val/needed": row},
+                         examples={"val/needed": [{"id": "x", "question": "q?", "reply": "A", "gold": "B"}]})
+    md = ceiling.markdown()
+    assert "| val | needed | 50 | 0.0 [0–7] | 40.0 [28–54] | 80.0 [67–89] ✓ | 50.0 [37–63] |" in md
+    assert "- val/needed: `q?` → `A` (gold B)" in md
+    assert ceiling.to_dict()["seconds"] == 3.0 and ceiling.to_dict()["llm"] == "llm"
