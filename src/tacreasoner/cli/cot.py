@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -86,30 +85,13 @@ def cot_review(
     seed: Seed = 0,
 ) -> None:
     """Manual audit: export a review sheet (CSV + self-contained HTML) or import reviewers' decisions."""
-    from tacreasoner.cot.audit import export_review, import_review
-    from tacreasoner.cot.build import REVIEW_DECISIONS
-    from tacreasoner.cot.filter import filter_samples
-    from tacreasoner.cot.format import write_training_files
-    from tacreasoner.cot.pipeline import SAMPLES, load_samples
+    from tacreasoner.cot.review import apply_review, export_review_sheet
 
     if export == (import_csv is not None):
         raise ValueError("give exactly one of --export or --import CSV")
-    samples, _ = load_samples(cot / SAMPLES)
-    if not samples:
-        raise FileNotFoundError(f"{cot / SAMPLES}: no samples (run `tacreasoner build-cot` first)")
-    filter_samples(samples)
     if export:
-        root = None
-        if bench is not None:
-            root = Path(json.loads((bench / "bench.json").read_text())["video_root"])
-        csv_path, html_path = export_review(samples, cot / "review", bench_video_root=root, n=n, seed=seed)
+        csv_path, html_path = export_review_sheet(cot, bench=bench, n=n, seed=seed)
         console.print(f"review sheet: {csv_path}\nreview page: {html_path}")
         return
-    result = import_review(import_csv, samples)
-    saved = cot / REVIEW_DECISIONS
-    if import_csv.resolve() != saved.resolve():
-        saved.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copyfile(import_csv, saved)  # build-cot re-applies these decisions on every later run
-    formatted = write_training_files(samples, cot / "touchcot", seed=seed)
-    console.print(f"applied {result.to_dict()}; training files rewritten: {formatted.n_train} train, "
-                  f"{formatted.n_val} val")
+    applied, n_train, n_val = apply_review(cot, import_csv, seed=seed)
+    console.print(f"applied {applied}; training files rewritten: {n_train} train, {n_val} val")
