@@ -117,8 +117,9 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
              "", "DynTAC-Sim-Bench is simulated: the project's stand-in for the paper's DynTAC-Bench, not its data. "
              "No val or test clip was seen in any training: the appearance encoder holds ImageNet weights "
              "(EfficientNet-Lite0) and trained on no tactile clip; Stages I and II read only train objects. "
-             "The model carries the optional read-out heads (fitted out of fold on the training clips); the paper's "
-             "core model without them is measured beside it in the project's benchmarks/results/quickstart_recipe.md. "
+             "The model carries the optional read-out heads (benchmark-specific, fitted out of fold on the training "
+             "clips' gold labels); the project reports the paper's core model without them beside it "
+             "(benchmarks/results/smollm2_heads_test.md). "
              "TSA (scenario choice) is zero-shot: never trained on. Strict answer extraction: a reply not in the "
              "asked `<answer>…</answer>` form counts as wrong.", ""]
     summary, verdicts = [], {}
