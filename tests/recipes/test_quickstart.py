@@ -130,3 +130,11 @@ def test_results_table_says_which_tasks_beat_chance(trained_run) -> None:
     assert all(verdict.values()) and all(row.endswith("| yes |") for row in rows[2:-1])
     _, wrong_verdict = results_table(evaluate(items, [wrong], "strict", root / "wrong"), {"random": {}})
     assert wrong_verdict.keys() == verdict.keys() and not any(wrong_verdict.values())
+
+
+def test_reports_name_the_cpu_model_not_just_the_architecture() -> None:
+    from tacreasoner.recipes.machine import cpu_name
+
+    info = "processor\t: 0\nvendor_id\t: GenuineIntel\nmodel name\t: Intel(R) Xeon(R) Processor @ 2.50GHz\n"
+    assert cpu_name(info) == "Intel(R) Xeon(R) Processor @ 2.50GHz"
+    assert cpu_name("processor\t: 0\n")  # no model name line: platform's answer, never empty

@@ -78,6 +78,7 @@ def run_recipe(data: str | Path, out: str | Path, *, seeds: Sequence[int] = (0,)
     """Run the recipe (module doc); returns what ``recipe.json`` holds. ``encoder``: ``encoder get`` settings other
     than the chosen defaults (layer, size, frames, sampling, background)."""
     from tacreasoner.data.readers import read_physiclear
+    from tacreasoner.recipes.machine import cpu_name
     from tacreasoner.train.run import stage_done
 
     data, root = Path(data), Path(out)
@@ -123,7 +124,7 @@ def run_recipe(data: str | Path, out: str | Path, *, seeds: Sequence[int] = (0,)
                 results[f"val_{wording}"] = _summary(where)
     elif evaluate:
         say(f"{data}: no labelled val objects; nothing evaluated (score a folder with evaluate-physiclear)")
-    record["machine"] = {"cpu": platform.processor() or platform.machine(), "python": platform.python_version()}
+    record["machine"] = {"cpu": cpu_name(), "python": platform.python_version()}
     record["finished"] = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     record["minutes_total"] = round(sum(seconds.values()) / 60, 1)
     record_path.write_text(json.dumps(record, indent=2) + "\n")

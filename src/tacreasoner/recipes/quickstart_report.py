@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from tacreasoner.recipes.machine import machine_line
 from tacreasoner.recipes.quickstart_parts import QuickstartPaths
 
 __all__ = ["QuickstartReport", "ask_one_test_clip", "evaluate_and_report", "evaluate_seeds", "results_table"]
@@ -97,7 +98,6 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
                         batch_size: int = 48, max_new_tokens: int = 64,
                         progress: Callable[[str], Callable[[int, int], None]] | None = None) -> QuickstartReport:
     """Evaluate every seed's model on the test split(s) and write ``report.md`` + ``report.json``."""
-    import platform
     from datetime import datetime, timezone
 
     splits = ("test", "test_heldout_sensor") if (paths.bench / "test_heldout_sensor.jsonl").is_file() else ("test",)
@@ -109,8 +109,7 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
     baselines = {k: v for k, v in baselines.items() if v}
     lines = ["# Quickstart results: TacReasoner (SmolLM2-135M-Instruct) on DynTAC-Sim-Bench", "",
              f"- Date: {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')}",
-             f"- Machine: {platform.processor() or platform.machine()}, {_cores()} cores, Python "
-             f"{platform.python_version()}",
+             f"- Machine: {machine_line()}",
              "- Command: `tacreasoner quickstart`",
              f"- Seeds: {sorted(models)} (Stage I + Stage II trained per seed); training seconds per seed: "
              f"{json.dumps(timings)}; evaluation {eval_seconds} s",
@@ -142,12 +141,6 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
     if models:
         publish_model(Path(models[min(models)]), paths.model)
     return QuickstartReport(path, summary, verdicts)
-
-
-def _cores() -> int:
-    import os
-
-    return os.cpu_count() or 1
 
 
 def _as_typed(path: Path) -> str:
