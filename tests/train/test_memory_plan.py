@@ -24,6 +24,7 @@ from tacreasoner.train.memory_plan import (
     resolve_llm,
 )
 
+CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 runner = CliRunner()
 TINY = {"hidden_size": 64, "intermediate_size": 160, "num_hidden_layers": 2, "num_attention_heads": 4,
         "num_key_value_heads": 2, "vocab_size": 512}
@@ -219,7 +220,7 @@ def test_the_cli_prints_a_plan_per_world_size(tmp_path: Path, tiny_llm: Path) ->
     (["--stage", "3"], "--stage must be 1 or 2"),
 ])
 def test_the_cli_rejects_bad_input_in_one_line(args: list[str], needle: str) -> None:
-    result = runner.invoke(app, ["memory-plan", *args])
+    result = runner.invoke(app, ["memory-plan", "--config", str(CONFIGS / "qwen2.5-7b.yaml"), *args])
     assert result.exit_code == 2, result.output
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], result.stderr

@@ -35,7 +35,8 @@ def train(
 @app.command("memory-plan")
 @cli_errors
 def memory_plan_cmd(
-    config: Annotated[Path, typer.Option("--config", help="YAML training config.")] = Path("configs/qwen2.5-7b.yaml"),
+    config: Annotated[Path, typer.Option("--config", help="YAML training config (e.g. configs/qwen2.5-7b.yaml) or a "
+                                                          "shipped one's name.")],
     stage: Annotated[int, typer.Option("--stage", help="1 = alignment (LLM frozen), 2 = LoRA SFT.")] = 2,
     world_size: Annotated[list[int] | None, typer.Option(
         "--world-size", help="GPUs training together (repeatable: one column each, e.g. 1, 2, 8).",
