@@ -10,7 +10,7 @@ import pytest
 
 from tacreasoner.video_io import VideoError, VideoInfo, probe_video, read_video, write_video
 
-PHYSICLEAR = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "physiclear" / "videos"
+PHYSICLEAR = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "physiclear" / "videos"
 
 
 def gradient_video(t: int = 12, h: int = 48, w: int = 64) -> np.ndarray:

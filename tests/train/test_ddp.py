@@ -147,24 +147,32 @@ def test_a_non_finite_loss_on_one_process_stops_every_process_promptly(inputs, t
 
 
 def _llm_with_new_rows(inputs: dict[str, Path], directory: Path, *, untie: bool) -> Path:
-    """The tiny LLM with three token ids marked untrained (as ``pretrain-llm`` marks them), so both stages also train
-    new token rows (the tiny tokenizer adds none). ``untie``: its output layer a copy of the input embeddings, as
-    Qwen2.5-7B/14B have it: the Stage II model FSDP2 can shard (a tied one is refused, tests/model/test_stages.py);
-    tied, one row table serves input and output and must be checkpointed once."""
-    from transformers import AutoTokenizer, Qwen2ForCausalLM
+    """A tiny LLM whose tokenizer lacks the project's tokens, as a pretrained one (SmolLM2, Qwen2.5) does: building
+    the model adds the tactile token and the reasoning tags as new rows, so both stages also train them. ``untie``:
+    its output layer a copy of the input embeddings, as Qwen2.5-7B/14B have it: the Stage II model FSDP2 can shard
+    (a tied one is refused, tests/model/test_stages.py); tied, one row table serves input and output and must be
+    checkpointed once."""
+    import torch
+    from tokenizers import Tokenizer, decoders, models, pre_tokenizers, trainers
+    from transformers import PreTrainedTokenizerFast, Qwen2Config, Qwen2ForCausalLM
 
     if not (directory / "config.json").is_file():
-        llm = Qwen2ForCausalLM.from_pretrained(inputs["llm"])
-        if untie:
-            llm.config.tie_word_embeddings = False
-            untied = Qwen2ForCausalLM(llm.config)
-            state = llm.state_dict()
-            state["lm_head.weight"] = llm.get_input_embeddings().weight.detach().clone()
-            untied.load_state_dict(state)
-            llm = untied
-        llm.save_pretrained(directory)
-        AutoTokenizer.from_pretrained(inputs["llm"]).save_pretrained(directory)
-        (directory / "untrained_tokens.json").write_text(json.dumps({"ids": [5, 6, 7]}))
+        texts = [json.loads(line)["question"] + " " + json.loads(line)["output"]
+                 for line in inputs["touchcot"].read_text(encoding="utf-8").splitlines()]
+        bpe = Tokenizer(models.BPE())
+        bpe.pre_tokenizer = pre_tokenizers.ByteLevel(add_prefix_space=False)
+        bpe.decoder = decoders.ByteLevel()
+        bpe.train_from_iterator(texts * 2, trainers.BpeTrainer(
+            vocab_size=600, special_tokens=["<|endoftext|>", "<|im_start|>", "<|im_end|>"], show_progress=False,
+            initial_alphabet=pre_tokenizers.ByteLevel.alphabet()))
+        tokenizer = PreTrainedTokenizerFast(tokenizer_object=bpe, eos_token="<|im_end|>", pad_token="<|endoftext|>")
+        config = Qwen2Config(vocab_size=len(tokenizer), hidden_size=64, num_hidden_layers=2, num_attention_heads=4,
+                             num_key_value_heads=2, intermediate_size=128, max_position_embeddings=1024,
+                             tie_word_embeddings=not untie, eos_token_id=tokenizer.eos_token_id,
+                             pad_token_id=tokenizer.pad_token_id)
+        torch.manual_seed(0)
+        Qwen2ForCausalLM(config).save_pretrained(directory)
+        tokenizer.save_pretrained(directory)
     return directory
 
 
