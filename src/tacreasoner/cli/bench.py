@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from tacreasoner.cli.app import Bench, Mode, Seed, Split, app, at_least_one, cli_errors, console
+from tacreasoner.cli.app import Bench, Mode, Seed, Split, app, at_least_one, cli_errors, comma_list, console
 
 
 @app.command("build-bench")
@@ -61,7 +61,7 @@ def paraphrase_bench_cmd(
     model answers questions worded as a user would: `tacreasoner evaluate --bench OUT`."""
     from tacreasoner.tasks.bench import reword_bench
 
-    counts = reword_bench(bench, out, wording="heldout", splits=[s.strip() for s in splits.split(",") if s.strip()])
+    counts = reword_bench(bench, out, wording="heldout", splits=comma_list(splits))
     for split, tasks in counts.items():
         console.print(f"{split}: {sum(tasks.values())} items ({', '.join(f'{t} {n}' for t, n in tasks.items())})")
     console.print(f"held-out wordings: {out}")

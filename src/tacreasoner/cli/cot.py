@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from tacreasoner.cli.app import Bench, Seed, Split, app, at_least_one, cli_errors, console
+from tacreasoner.cli.app import Bench, Seed, Split, app, at_least_one, cli_errors, comma_list, console
 from tacreasoner.progress import StageProgress
 
 if TYPE_CHECKING:
@@ -55,7 +55,7 @@ def build_cot_cmd(
     at_least_one("--workers", workers)
     at_least_one("--concurrency", concurrency)
     cfg = _teacher_config(teacher, teacher_config, model)
-    task_list = [t.strip() for t in tasks.split(",") if t.strip()] if tasks else None
+    task_list = comma_list(tasks) if tasks else None
     with StageProgress() as bars:
         result = build_cot(bench, out, cfg, split=split, tasks=task_list, limit=limit, workers=workers,
                            concurrency=concurrency, reveal_answer=not blind, seed=seed, progress=bars)

@@ -9,7 +9,17 @@ from typing import Annotated
 
 import typer
 
-from tacreasoner.cli.app import Bench, Mode, Split, app, at_least_one, cli_errors, console, needs_train_extra
+from tacreasoner.cli.app import (
+    Bench,
+    Mode,
+    Split,
+    app,
+    at_least_one,
+    cli_errors,
+    comma_list,
+    console,
+    needs_train_extra,
+)
 from tacreasoner.progress import StageProgress
 
 
@@ -31,7 +41,7 @@ def task_loss_cmd(
 
     if per_task < 0:
         raise ValueError(f"--per-task {per_task}: expected 0 (all) or more")
-    split_list = [s.strip() for s in splits.split(",") if s.strip()]
+    split_list = comma_list(splits)
     with StageProgress() as bars:
         losses = task_losses(model, bench, splits=split_list, per_task=per_task or None, seed=seed,
                              video_cache=video_cache, progress=functools.partial(bars, "teacher-forced answers"))

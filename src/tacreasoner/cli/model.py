@@ -84,14 +84,13 @@ def encoder_get_cmd(
     """Write a pretrained backbone as an appearance folder (config, safetensors weights, its frame preparation).
     The defaults are the ones chosen by cross-validation on PhysiCLeAR's train objects (docs/real-data.md)."""
     needs_train_extra("encoder get")
-    from tacreasoner.model.efficientnet import BACKBONE_DEFAULTS, backbone_settings, save_imagenet_backbone
+    from tacreasoner.model.efficientnet import write_imagenet_backbone
 
     if name.lower().replace("_", "-") != "efficientnet-lite0":
         raise ValueError(f"unknown backbone {name!r}; available: efficientnet-lite0")
     chosen = {k: v for k, v in {"layer": layer, "size": size, "frames": frames, "sampling": sampling,
                                 "background": background}.items() if v is not None}
-    encoder, video = backbone_settings(**{**BACKBONE_DEFAULTS, **chosen})
-    path = save_imagenet_backbone(out, encoder, video.to_dict())
+    path, encoder, video = write_imagenet_backbone(out, chosen)
     console.print(f"model.appearance: {path} (EfficientNet-Lite0 ImageNet weights cut at {encoder.backbone_layer}: "
                   f"{encoder.hidden_size} channels; {video.num_frames} {video.sampling} frames of "
                   f"{video.image_size[0]}x{video.image_size[1]}, background {video.background})")

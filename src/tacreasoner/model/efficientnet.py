@@ -29,7 +29,7 @@ from tacreasoner.model.encoder_config import BACKBONE_LAYERS, TactileEncoderConf
 from tacreasoner.model.video_processing import VideoProcessingConfig
 
 __all__ = ["BACKBONE_DEFAULTS", "IMAGENET_MEAN", "IMAGENET_STD", "EfficientNetAppearance", "backbone_settings",
-           "imagenet_weights_path", "load_imagenet_weights", "save_imagenet_backbone"]
+           "imagenet_weights_path", "load_imagenet_weights", "save_imagenet_backbone", "write_imagenet_backbone"]
 
 FRAME_CHUNK = 32
 """Frames through the backbone at once: bounds evaluation memory (about 0.3 GB of feature maps at 240×320)."""
@@ -184,3 +184,11 @@ def save_imagenet_backbone(out: str | os.PathLike[str], config: TactileEncoderCo
     (out / "source.json").write_text(json.dumps({**info, "backbone": "efficientnet_lite0 (ImageNet)",
                                                  "licence": "Apache-2.0"}, indent=2) + "\n", encoding="utf-8")
     return out
+
+
+def write_imagenet_backbone(out: str | os.PathLike[str], settings: dict[str, Any] | None = None,
+                            ) -> tuple[Path, TactileEncoderConfig, VideoProcessingConfig]:
+    """:func:`save_imagenet_backbone` with ``settings`` (layer, size, frames, sampling, background) over
+    :data:`BACKBONE_DEFAULTS`: what ``encoder get`` and the recipes write; returns the folder and what it holds."""
+    config, video = backbone_settings(**{**BACKBONE_DEFAULTS, **(settings or {})})
+    return save_imagenet_backbone(out, config, video.to_dict()), config, video

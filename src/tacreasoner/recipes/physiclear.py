@@ -139,10 +139,9 @@ def _get_llm(out: Path, say: Callable[[str], None]) -> None:
 
 
 def _get_encoder(out: Path, settings: dict[str, Any] | None) -> None:
-    from tacreasoner.model.efficientnet import BACKBONE_DEFAULTS, backbone_settings, save_imagenet_backbone
+    from tacreasoner.model.efficientnet import write_imagenet_backbone
 
-    encoder, video = backbone_settings(**{**BACKBONE_DEFAULTS, **(settings or {})})
-    save_imagenet_backbone(out, encoder, video.to_dict())
+    write_imagenet_backbone(out, settings)
 
 
 def _build_bench(data: Path, out: Path) -> None:

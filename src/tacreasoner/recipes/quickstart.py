@@ -140,7 +140,8 @@ def quickstart_stages(run: QuickstartRun, settings: QuickstartSettings | None = 
 
         lines = []
         for seed in seeds:
-            info = train_stages(quickstart_config(paths, seed, run.config, run.overrides), run.processes)
+            config = quickstart_config(paths, seed, run.config or settings.train_config, run.overrides)
+            info = train_stages(config, run.processes)
             trained[seed] = Path(info["model"])
             timings[f"seed{seed}"] = info["seconds"]
             took = ", ".join(f"{k} {v:.0f} s" for k, v in info["seconds"].items()) or "already trained"

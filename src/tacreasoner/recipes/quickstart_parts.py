@@ -116,9 +116,8 @@ def llm(paths: QuickstartPaths, name: str, given: bool) -> list[str]:
 def encoder(paths: QuickstartPaths, settings: dict[str, Any]) -> list[str]:
     if (paths.encoder / "model.safetensors").is_file():
         return [f"already there: {paths.encoder}"]
-    from tacreasoner.model.efficientnet import backbone_settings, save_imagenet_backbone
+    from tacreasoner.model.efficientnet import write_imagenet_backbone
 
-    config, video = backbone_settings(**settings)
-    save_imagenet_backbone(Path(paths.encoder), config, video.to_dict())
+    _, config, video = write_imagenet_backbone(paths.encoder, settings)
     return [f"EfficientNet-Lite0 (ImageNet) cut at {config.backbone_layer}, {video.num_frames} {video.sampling} "
             f"frames of {video.image_size[0]}x{video.image_size[1]}: no training, no clip read"]
