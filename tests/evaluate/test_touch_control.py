@@ -274,6 +274,31 @@ def test_evaluate_touch_flag_keeps_the_modes_side_by_side(model_dir: Path, bench
     assert "touch must be one of real, blank, shuffled; got 'nothing'" in result.output
 
 
+def test_evaluate_video_cache_is_filled_once_and_answers_as_without_it(model_dir: Path, bench: Path,
+                                                                        tmp_path: Path) -> None:
+    from tacreasoner.cli import app
+
+    runner = CliRunner()
+    cache = tmp_path / "video_cache"
+    base = ["evaluate", "--model", str(model_dir), "--bench", str(bench), "--limit", "3", "--max-new-tokens", "2"]
+    plain = runner.invoke(app, [*base, "--out", str(tmp_path / "plain")])
+    first = runner.invoke(app, [*base, "--out", str(tmp_path / "first"), "--video-cache", str(cache)])
+    assert plain.exit_code == 0 and first.exit_code == 0, plain.output + first.output
+    files = sorted(cache.glob("*.npy"))
+    assert files, "the cache was not filled"
+    stamps = {f: f.stat().st_mtime_ns for f in files}
+    second = runner.invoke(app, [*base, "--out", str(tmp_path / "second"), "--video-cache", str(cache)])
+    assert second.exit_code == 0, second.output
+    assert sorted(cache.glob("*.npy")) == files and all(f.stat().st_mtime_ns == stamps[f] for f in files), \
+        "a second model answering the same clips decoded them again"
+
+    def answers(name: str) -> list[str]:
+        path = tmp_path / name / "predictions" / "test.jsonl"
+        return [json.loads(line)["prediction"] for line in path.read_text().splitlines()]
+
+    assert answers("plain") == answers("first") == answers("second")
+
+
 def test_evaluate_refuses_to_resume_answers_of_another_model_or_benchmark(model_dir: Path, bench: Path,
                                                                           tmp_path: Path) -> None:
     import shutil

@@ -105,6 +105,9 @@ Workers = Annotated[int | None, typer.Option("--workers", help="Worker processes
 Bench = Annotated[Path, typer.Option("--bench", help="Benchmark directory (from `tacreasoner build-bench`).")]
 Split = Annotated[str, typer.Option("--split", help="train, val, test or test_heldout_sensor.")]
 Mode = Annotated[str, typer.Option("--mode", help="Answer extraction: strict or lenient.")]
+VideoCache = Annotated[Path | None, typer.Option(
+    "--video-cache", help="Preprocessed-video folder to reuse and fill (e.g. a training run's data.video_cache): "
+                          "commands reading the same clips decode them once.", show_default=False)]
 Overrides = Annotated[list[str] | None, typer.Option(
     "--set", help="Override a config value: --set stage2.steps=50 (repeatable; dotted keys).")]
 

@@ -13,6 +13,7 @@ from tacreasoner.cli.app import (
     Bench,
     Mode,
     Split,
+    VideoCache,
     app,
     at_least_one,
     cli_errors,
@@ -32,8 +33,7 @@ def task_loss_cmd(
     splits: Annotated[str, typer.Option("--splits", help="Comma-separated splits, the reference first.")] = "train,val",
     per_task: Annotated[int, typer.Option("--per-task", help="Items per task and split (0: all).")] = 40,
     seed: Annotated[int, typer.Option("--seed", help="Draws the items of each task.")] = 0,
-    video_cache: Annotated[Path | None, typer.Option(
-        "--video-cache", help="Preprocessed-video folder to reuse and fill (e.g. a training run's).")] = None,
+    video_cache: VideoCache = None,
 ) -> None:
     """The gold answer's teacher-forced loss per task on train items against val items: a small train loss beside
     a large val loss means the model learned the training objects by heart, both large that it under-fits."""
@@ -61,8 +61,7 @@ def retrieval_bench_cmd(
     encoder: Encoder,
     out: Annotated[Path, typer.Option("--out", help="New benchmark directory to write.")],
     k: Annotated[int, typer.Option("--k", help="Neighbours per video.")] = 3,
-    video_cache: Annotated[Path | None, typer.Option(
-        "--video-cache", help="Preprocessed-video folder to reuse and fill (e.g. a training run's).")] = None,
+    video_cache: VideoCache = None,
 ) -> None:
     """Retrieval augmentation (Octopi-1.5): a new benchmark whose questions start with each video's k nearest train
     clips (frozen-encoder CLS cosine, never of the item's own objects) and their level words."""
@@ -97,6 +96,7 @@ def evaluate_cmd(
                                                        "Not real: predictions/<split>_<touch>.jsonl and the "
                                                        "report in touch_<touch>/.")] = "real",
     touch_seed: Annotated[int, typer.Option("--touch-seed", help="Seed of the shuffled videos.")] = 0,
+    video_cache: VideoCache = None,
 ) -> None:
     """Answer a benchmark split with a trained model and score it (Wilson CIs; resumable predictions)."""
     needs_train_extra("evaluate")
@@ -106,7 +106,7 @@ def evaluate_cmd(
 
     check_touch(touch)  # before the model loads: a typo fails at once
     items, preds = predict_split(model, bench, split, out, batch_size=batch_size, max_new_tokens=max_new_tokens,
-                                 limit=limit, touch=touch, touch_seed=touch_seed)
+                                 limit=limit, touch=touch, touch_seed=touch_seed, video_cache=video_cache)
     report_dir = out if touch == "real" else out / f"touch_{touch}"
     report = evaluate(items, [preds], mode, report_dir)
     console.print(report.to_markdown())

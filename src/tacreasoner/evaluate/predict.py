@@ -300,9 +300,10 @@ def _key_name(key: VideoKey, root: Path) -> str:
 
 def predict_split(model_dir: Path, bench: Path, split: str, out: Path, *, batch_size: int = 32,
                   max_new_tokens: int = 256, limit: int | None = None, touch: str = "real", touch_seed: int = 0,
-                  ) -> tuple[list[QAItem], Path]:
+                  video_cache: Path | None = None) -> tuple[list[QAItem], Path]:
     """Answer one split of a benchmark with a saved model into ``out``'s predictions file (resuming it), with a
-    progress display; returns the items asked and the predictions path."""
+    progress display; returns the items asked and the predictions path. ``video_cache``: a preprocessed-video
+    folder to read and fill (a training run's), so that models answering the same clips decode them once."""
     from tacreasoner.progress import ClipProgress
     from tacreasoner.tasks.bench import load_bench
     from tacreasoner.train.data import bench_video_root
@@ -317,5 +318,5 @@ def predict_split(model_dir: Path, bench: Path, split: str, out: Path, *, batch_
     with ClipProgress(f"answering {label}", "items") as bar:
         predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
                       max_new_tokens=max_new_tokens, progress=bar, touch=touch, touch_seed=touch_seed,
-                      answered_by=answerer_id(model_dir, bench))
+                      answered_by=answerer_id(model_dir, bench), video_cache=video_cache)
     return items, path

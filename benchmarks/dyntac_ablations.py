@@ -1,0 +1,132 @@
+"""The paper's ablations (Tables 3/4) on DynTAC-Sim val, seed by seed against the recommended recipe, from the
+folders that benchmarks/dyntac_gpu.sh leaves (``eval/<variant>.seed<S>/<split>/scored/*.jsonl``).
+
+Writes ``benchmarks/results/<name>.{md,json}``: the recipe over its seeds on val (and on test, scored once, when
+its test folders exist), then one row per ablation: Average mean ± std over seeds, its difference to the recipe,
+and per seed an exact McNemar test on the same val items (the ablation and the recipe share the seed).
+
+    python benchmarks/dyntac_ablations.py --run /tmp/dyntac_gpu --name dyntac_ablations_val \\
+        --machine "one lent H100" --notes "..."
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import header_md, md_table, publish, stamp
+from tacreasoner.evaluate.report import compare_runs, load_scored, summarize
+
+RECIPE = "rec"
+ABLATIONS = {
+    "no_dyn": "w/o temporal branch (appearance only)",
+    "no_qcond": "w/o question conditioning",
+    "cot": "Stage II on TouchCoT instead of plain answers",
+    "no_stage1": "w/o Stage I (Stage II from the untrained projector)",
+    "no_stage2": "w/o Stage II (the recipe's Stage I model)",
+}
+
+
+def seeds_of(run: Path, variant: str, split: str) -> dict[int, list[dict]]:
+    """Seed → score records of every scored ``variant.seedS`` folder of ``split``."""
+    out = {}
+    for folder in sorted(run.glob(f"eval/{variant}.seed*/{split}/scored")):
+        files = sorted(folder.glob("*.jsonl"))
+        if len(files) != 1:
+            raise SystemExit(f"{folder}: expected one scored file, found {len(files)}")
+        out[int(folder.parent.parent.name.rsplit("seed", 1)[1])] = load_scored(files[0])
+    return dict(sorted(out.items()))
+
+
+def pct(x: float) -> str:
+    return f"{100 * x:.1f}"
+
+
+def pm(mean: float, std: float | None) -> str:
+    """mean ± std in %, the mean alone where one seed leaves no spread."""
+    return pct(mean) if std is None or math.isnan(std) else f"{pct(mean)} ± {pct(std)}"
+
+
+def recipe_table(runs: dict[int, list[dict]]) -> tuple[str, dict]:
+    rep = summarize({f"seed{s}": recs for s, recs in runs.items()})
+    rows = [[r.task, r.n, pm(r.mean, r.std), f"{pct(r.ci_low)}–{pct(r.ci_high)}",
+             pct(r.parse_failure_rate), pct(r.chance)] for r in rep.tasks]
+    rows.append(["**Average**", "", f"**{pm(rep.average['value'], rep.average['std'])}**", "", "",
+                 ""])
+    per_seed = ", ".join(f"seed{s} {pct(a)}" for s, a in zip(runs, rep.average["per_run"], strict=True))
+    md = md_table(["task", "n", "mean ± std over seeds", "95% CI (pooled)", "parse fail", "chance"], rows)
+    return md + f"\nAverage per seed: {per_seed}.\n", rep.to_dict()
+
+
+def ablation_rows(run: Path, recipe: dict[int, list[dict]]) -> tuple[list[list], dict]:
+    rows, payload = [], {}
+    base = summarize({f"seed{s}": recs for s, recs in recipe.items()})
+    for variant, label in ABLATIONS.items():
+        runs = {s: recs for s, recs in seeds_of(run, variant, "val").items() if s in recipe}
+        if not runs:
+            rows.append([label, "not run", "", "", ""])
+            continue
+        rep = summarize({f"seed{s}": recs for s, recs in runs.items()})
+        tests, diffs = [], []
+        for s, recs in runs.items():
+            comp = compare_runs(recipe[s], recs, "recipe", variant)
+            b_avg = summarize({"b": recs}).average["value"]
+            a_avg = summarize({"a": recipe[s]}).average["value"]
+            diffs.append(b_avg - a_avg)
+            tests.append({"seed": s, "recipe": a_avg, "ablation": b_avg, "p": comp.overall.p_value,
+                          "recipe_only_right": comp.overall.b10, "ablation_only_right": comp.overall.b01})
+        lower = sum(t["p"] < 0.05 and t["ablation"] < t["recipe"] for t in tests)
+        higher = sum(t["p"] < 0.05 and t["ablation"] > t["recipe"] for t in tests)
+        verdict = (f"lower in {lower}/{len(tests)} seeds" if lower and not higher else
+                   f"higher in {higher}/{len(tests)} seeds" if higher and not lower else
+                   "mixed" if lower and higher else "no seed differs (p ≥ 0.05)")
+        rows.append([label, f"{pm(rep.average['value'], rep.average['std'])} ({len(runs)})",
+                     " / ".join(f"{100 * d:+.1f}" for d in diffs),
+                     "; ".join(f"s{t['seed']} {t['p']:.2g} ({t['recipe_only_right']}↓ {t['ablation_only_right']}↑)"
+                               for t in tests), verdict])
+        payload[variant] = {"label": label, "report": rep.to_dict(), "per_seed": tests, "verdict": verdict}
+    rows.insert(0, ["the recipe (quickstart-smollm2-cpu, with the read-out heads)",
+                    f"{pm(base.average['value'], base.average['std'])} ({len(recipe)})", "–", "–",
+                    "–"])
+    return rows, payload
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--run", type=Path, required=True, help="the unpacked dyntac_gpu.tgz (holds eval/)")
+    ap.add_argument("--name", default="dyntac_ablations_val", help="result file stem under benchmarks/results")
+    ap.add_argument("--machine", default="", help="where the models were trained and answered")
+    ap.add_argument("--notes", default="", help="what was run, how, and what to read into it")
+    args = ap.parse_args()
+    recipe = seeds_of(args.run, RECIPE, "val")
+    if not recipe:
+        raise SystemExit(f"{args.run}/eval: no scored val folder of the recipe ({RECIPE}.seedS/val/scored)")
+    info = stamp()
+    md = header_md("The paper's ablations on DynTAC-Sim val, paired by seed, on the recommended recipe", info)
+    md += (f"- Trained and answered on: {args.machine}\n\n" if args.machine else "") + (
+        args.notes + "\n\n" if args.notes else "")
+    md += ("DynTAC-Sim-Bench is simulated: the project's stand-in for the paper's DynTAC-Bench. Strict extraction "
+           "(a reply not in the asked `<answer>…</answer>` form counts as wrong). Every choice below is read on "
+           "**val**; the recipe's test row is its one scoring on test and chose nothing.\n\n")
+    md += f"## The recipe on val, {len(recipe)} seeds\n\n"
+    table, rec_payload = recipe_table(recipe)
+    md += table
+    payload: dict = {**info, "machine_trained": args.machine, "notes": args.notes, "recipe_val": rec_payload}
+    test = seeds_of(args.run, RECIPE, "test")
+    if test:
+        table, payload["recipe_test"] = recipe_table(test)
+        md += f"\n## The recipe on test (scored once, {len(test)} seeds)\n\n" + table
+    rows, payload["ablations"] = ablation_rows(args.run, recipe)
+    md += ("\n## Ablations on val (the paper's Tables 3/4)\n\nAverage: mean ± std over seeds (seeds). Δ: the "
+           "ablation's Average minus the recipe's, per seed. p: exact McNemar over all val items per seed (↓ items "
+           "only the recipe answers right, ↑ only the ablation). Verdict: seeds whose difference is significant "
+           "(p < 0.05), by direction.\n\n")
+    md += md_table(["model", "Average (val)", "Δ per seed (points)", "p per seed", "verdict"], rows)
+    publish(args.name, payload, md)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,196 @@
+#!/usr/bin/env bash
+# The recommended DynTAC-Sim recipe (the quickstart's shipped config quickstart-smollm2-cpu: SmolLM2-135M-Instruct,
+# EfficientNet-Lite0 appearance branch, the read-out heads, plain answers) and the paper's ablations (Tables 3/4) on
+# it, 3 seeds each, scored on val, the recipe's seeds also on test once; on one lent GPU (issue 39). Same config and
+# steps as the quickstart; what differs on a GPU is only that Accelerate picks bf16 mixed precision
+# (runtime.mixed_precision: auto). Variants (each a --set on the shipped config):
+#   rec        the recipe as shipped (val and test)
+#   no_dyn     without the temporal branch (model.encoder.use_temporal=false)
+#   no_qcond   without question conditioning (model.encoder.question_conditioning=false)
+#   cot        Stage II on TouchCoT (offline rules teacher) instead of plain answers, from rec's Stage I of the seed
+#   no_stage1  without Stage I (stage1.skip=true: Stage II from the untrained projector)
+#   no_stage2  without Stage II (rec's Stage I model answers)
+# The lent machine reaches no registry and a call carries at most 64 MiB, so the work is split over calls on one
+# warm machine (it is given back 30 s after a call), everything kept under $W there:
+#   bash benchmarks/dyntac_gpu.sh prep      # HERE: fills .gpu/ (git-ignored) from the CPU quickstart's folder $Q:
+#                                           #   .gpu/whl  wheels the image lacks (av, transformers>=5.20, gguf,
+#                                           #             efficientnet-lite-pytorch), downloaded for Python 3.12
+#                                           #   .gpu/data data.tgz: bench/, encoder/, the TouchCoT train file
+#                                           #   .gpu/g1, .gpu/g2: the SmolLM2 GGUF in two parts
+#   device run, carry .gpu/whl .gpu/data:  bash benchmarks/dyntac_gpu.sh setup    # installs, starts the simulation
+#   device run, carry .gpu/g1:             bash benchmarks/dyntac_gpu.sh part 1
+#   device run, carry .gpu/g2:             DEADLINE_S=... bash benchmarks/dyntac_gpu.sh part 2   # joins, runs
+#   (again, same warm machine):            DEADLINE_S=... bash benchmarks/dyntac_gpu.sh go       # resumes
+# `part 2` and `go` run the pipeline in the foreground until DEADLINE_S seconds after it starts, stop what has not
+# finished (training resumes from its last checkpoint on the next `go`) and pack logs, timings and scored
+# predictions into $OUT/dyntac_gpu.tgz. The table is made anywhere by benchmarks/dyntac_ablations.py.
+# Sizing, measured on one H100 with 16 cores (2026-11-27, experiments/2026-11-27_dyntac_gpu): the three calls'
+# set-up ~2.5 min of lease (start, install, a 62 s simulation at 15 workers, llm get 53 s, the clip cache 94 s);
+# with all 18 chains at once Stage I took ~95 s of training (0.3 s/step), Stage II ~180 s of set-up (mostly
+# fitting the read-out heads on the CPU) and then 0.45-0.55 s/step, so one chain needs ~15 min: more than a 15-minute
+# lease holds. Run a subset per lease (VARIANTS, SEEDS), e.g. VARIANTS="rec no_stage2" first.
+set -u
+export PYTHONUNBUFFERED=1 PYTHONPATH=/tmp/site:$PWD/src
+W=${W:-/tmp/w}
+TR=${TR:-python3 -m tacreasoner}
+CONFIG=${CONFIG:-quickstart-smollm2-cpu}
+Q=${Q:-runs/qs_smollm2}                  # prep: the CPU quickstart folder (bench, encoder) and the TouchCoT build
+COT=${COT:-runs/qs_cot/touchcot/touchcot_train.jsonl}
+GGUF=${GGUF:-$HOME/.cache/tacreasoner/gguf/SmolLM2-135M-Instruct.Q4_1.gguf}
+WHL=${WHL:-}                               # prep: a folder of ready wheels instead of downloading them
+read -r -a VARIANTS <<< "${VARIANTS:-rec no_dyn no_qcond cot no_stage1 no_stage2}"
+read -r -a SEEDS <<< "${SEEDS:-0 1 2}"
+STEPS=${STEPS:-}                           # dry runs: e.g. "--set stage1.steps=2 --set stage2.steps=2"
+LIMIT=${LIMIT:-}                           # dry runs: e.g. "--limit 8"
+say() { echo "[$(date +%H:%M:%S)] $*"; }
+
+declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
+                 [no_qcond]="--set model.encoder.question_conditioning=false"
+                 [cot]="--set data.stage2_data=touchcot --set data.touchcot=$W/touchcot_train.jsonl"
+                 [no_stage1]="--set stage1.skip=true" [no_stage2]="")
+# CPU priority (the chains are CPU-bound): the recipe first, then the cheaper ablations; the last two mostly wait
+declare -A NICE=([rec]=0 [no_stage2]=0 [no_dyn]=2 [no_stage1]=2 [no_qcond]=19 [cot]=19)
+
+step() {  # step NAME DONE_FILE COMMAND...: run unless DONE_FILE exists; log its wall time
+    local name=$1 done=$2 start
+    shift 2
+    [ -e "$done" ] && return 0
+    start=$(date +%s)
+    "$@" > "$W/logs/$name.log" 2>&1 || { say "$name FAILED (see logs/$name.log)"; touch "$W/logs/$name.failed"; return 1; }
+    printf '%s\t%s\n' "$name" "$(( $(date +%s) - start ))" >> "$W/times.tsv"
+    say "$name: $(( $(date +%s) - start )) s"
+}
+train_done() {  # train_done STAGE_DIR COMMAND...: run COMMAND, then mark STAGE_DIR finished (its model is whole)
+    local dir=$1
+    shift
+    "$@" && touch "$dir/run.done"
+}
+train() {  # train VARIANT SEED STAGE
+    local v=$1 s=$2 st=$3
+    # shellcheck disable=SC2086  # SETS and STEPS hold several words
+    step "$v.seed$s.stage$st" "$W/runs/$v.seed$s/stage$st/run.done" train_done "$W/runs/$v.seed$s/stage$st" \
+        $TR train --stage "$st" --resume \
+        --config "$CONFIG" --set seed="$s" --set output_dir="$W/runs/$v.seed$s" --set model.llm="$W/smollm2" \
+        --set model.appearance="$W/encoder" --set data.bench="$W/bench" --set data.video_cache="$W/video_cache" \
+        --set runtime.progress=false ${SETS[$v]} $STEPS
+}
+score() {  # score NAME MODEL SPLIT MAX_NEW_TOKENS
+    # shellcheck disable=SC2086
+    step "$1.eval_$3" "$W/eval/$1/$3/report.md" $TR evaluate --model "$2" --bench "$W/bench" --split "$3" \
+        --out "$W/eval/$1/$3" --batch-size 64 --max-new-tokens "$4" --video-cache "$W/video_cache" $LIMIT
+}
+chain() {  # chain VARIANT SEED: its training, then its scores
+    local v=$1 s=$2 run="$W/runs/$1.seed$2"
+    case $v in
+    rec|no_dyn|no_qcond) train "$v" "$s" 1 && train "$v" "$s" 2 && score "$v.seed$s" "$run/stage2/model" val 64 \
+        || return 1
+        [ "$v" = rec ] && score "$v.seed$s" "$run/stage2/model" test 64 ;;
+    no_stage1) train "$v" "$s" 2 && score "$v.seed$s" "$run/stage2/model" val 64 ;;
+    cot|no_stage2)
+        until [ -e "$W/runs/rec.seed$s/stage1/run.done" ]; do  # finished, not merely started saving
+            [ -e "$W/logs/rec.seed$s.stage1.failed" ] && return 1
+            sleep 5
+        done
+        if [ "$v" = no_stage2 ]; then score "$v.seed$s" "$W/runs/rec.seed$s/stage1/model" val 64; return; fi
+        mkdir -p "$run" && { [ -e "$run/stage1" ] || ln -s "../rec.seed$s/stage1" "$run/stage1"; }
+        train "$v" "$s" 2 && score "$v.seed$s" "$run/stage2/model" val 256 ;;
+    esac
+}
+
+pack() {  # what exists so far: logs, timings, run records, scored predictions and reports
+    [ -n "${OUT:-}" ] || return 0
+    (cd "$W" && shopt -s nullglob && have=() && for p in pipeline.log times.tsv logs eval/*/*/report.md \
+        eval/*/*/report.json eval/*/*/predictions eval/*/*/scored runs/*/stage*/run.json runs/*/stage*/train_log.jsonl \
+        versions.txt; do [ -e "$p" ] && have+=("$p"); done
+     tar czf "$OUT/dyntac_gpu.tgz" "${have[@]}")
+}
+
+pipeline() {
+    local deadline=$(( $(date +%s) + ${DEADLINE_S:-480} ))
+    mkdir -p "$W/logs"
+    say "llm get, while the simulation finishes"
+    step llm "$W/smollm2/config.json" $TR llm get smollm2 --gguf "$W/smollm2.gguf" --out "$W/smollm2" || return 1
+    until [ -e "$W/sim.done" ]; do sleep 2; done
+    say "simulation: $(cat "$W/sim.done"); manifest md5 $(md5sum < "$W/sim/manifest.jsonl" | cut -c1-12) (expected ${SIM_MD5:-?})"
+    # one 1-step Stage I fills the shared clip cache (decoded frames, frozen appearance features) once
+    # shellcheck disable=SC2086
+    TACREASONER_VIDEO_WORKERS=14 step clip_cache "$W/warm/stage1/model/config.json" $TR train --stage 1 --config "$CONFIG" \
+        --set stage1.steps=1 --set output_dir="$W/warm" --set model.llm="$W/smollm2" --set model.appearance="$W/encoder" \
+        --set data.bench="$W/bench" --set data.video_cache="$W/video_cache" --set runtime.progress=false || return 1
+    local v s
+    for s in val test; do  # the val and test clips decoded into the cache once, beside the chains' Stage I
+        # shellcheck disable=SC2086
+        TACREASONER_VIDEO_WORKERS=6 step "decode_$s" "$W/decoded/$s/report.md" $TR evaluate --model \
+            "$W/warm/stage1/model" --bench "$W/bench" --split "$s" --out "$W/decoded/$s" --max-new-tokens 1 \
+            --batch-size 64 --video-cache "$W/video_cache" $LIMIT &
+    done
+    say "${#VARIANTS[@]} variants x ${#SEEDS[@]} seeds at once, until $(date -d "@$deadline" +%H:%M:%S)"
+    for v in "${VARIANTS[@]}"; do for s in "${SEEDS[@]}"; do
+        (renice -n "${NICE[$v]}" -p "$BASHPID" > /dev/null; OMP_NUM_THREADS=1 chain "$v" "$s") &
+    done; done
+    while [ "$(date +%s)" -lt "$deadline" ] && [ -n "$(jobs -r)" ]; do sleep 3; done
+    if [ -n "$(jobs -r)" ]; then
+        say "deadline: stopping what is unfinished"
+        pkill -f "tacreasoner (train|evaluate)" 2>/dev/null
+        sleep 2
+    fi
+    wait 2>/dev/null
+    say "trained: $(ls -d "$W"/runs/*/stage2/model/config.json 2>/dev/null | wc -l) Stage II models;" \
+        "scored: $(ls "$W"/eval/*/*/report.md 2>/dev/null | wc -l)"
+}
+
+case "${1:-}" in
+prep)
+    rm -rf .gpu && mkdir -p .gpu/whl .gpu/data .gpu/g1 .gpu/g2 .gpu/stage
+    if [ -n "$WHL" ]; then cp "$WHL"/*.whl .gpu/whl/; else
+        # huggingface_hub stays the image's: the newest needs httpx2, which the image lacks
+        python3 -m pip download -q --no-deps --only-binary=:all: --python-version 3.12 --implementation cp \
+            --platform manylinux_2_28_x86_64 --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 \
+            -d .gpu/whl av==18.1.0 transformers==5.24.0 gguf==0.19.0 efficientnet-lite-pytorch==0.1.0 || exit 1
+    fi
+    cp -r "$Q/bench" "$Q/encoder" .gpu/stage/ && cp "$COT" .gpu/stage/touchcot_train.jsonl
+    tar czf .gpu/data/data.tgz -C .gpu/stage bench encoder touchcot_train.jsonl && rm -rf .gpu/stage
+    head -c 50000000 "$GGUF" > .gpu/g1/part && tail -c +50000001 "$GGUF" > .gpu/g2/part
+    md5sum < "$Q/sim/manifest.jsonl" | cut -c1-12 > .gpu/data/sim.md5
+    du -sh .gpu/*
+    ;;
+setup)
+    mkdir -p "$W/logs"
+    python3 -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --target /tmp/site .gpu/whl/*.whl \
+        || exit 1
+    tar xzf .gpu/data/data.tgz -C "$W" && cp .gpu/data/sim.md5 "$W/"
+    sed -i "s#\"[^\"]*/sim\"#\"$W/sim\"#" "$W/bench/bench.json"
+    { nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader
+      python3 -c "import sys,torch,transformers,peft,accelerate,av,numpy;print('python',sys.version.split()[0],'torch',torch.__version__,'transformers',transformers.__version__,'peft',peft.__version__,'accelerate',accelerate.__version__,'av',av.__version__,'numpy',numpy.__version__)"
+      nproc; $TR train --help > /dev/null && echo "tacreasoner imports"; } | tee "$W/versions.txt"
+    # the simulation outlives this call (its own session); the pipeline waits for sim.done
+    # from its own copy of the tree: the next call replaces this one's
+    cp -r "$PWD" "$W/repo" && (cd "$W/repo" && setsid nohup bash -c "start=\$(date +%s); \
+        PYTHONPATH=/tmp/site:$W/repo/src $TR simulate --out $W/sim --workers 15 > $W/logs/simulate.log 2>&1 \
+        && echo \"\$(( \$(date +%s) - start )) s\" > $W/sim.done" > /dev/null 2>&1 &)
+    say "setup done; simulating in the background"
+    ;;
+part)
+    cp ".gpu/g$2/part" "$W/gguf.part$2" && ls -la "$W"/gguf.part*
+    if [ "$2" = 2 ]; then
+        cat "$W/gguf.part1" "$W/gguf.part2" > "$W/smollm2.gguf" && rm "$W"/gguf.part*
+        SIM_MD5=$(cat "$W/sim.md5") pipeline 2>&1 | tee -a "$W/pipeline.log"
+        pack
+    fi
+    ;;
+go)
+    rm -f "$W"/logs/*.failed
+    SIM_MD5=$(cat "$W/sim.md5") pipeline 2>&1 | tee -a "$W/pipeline.log"
+    pack
+    ;;
+dry)  # HERE, before a lease (W=/tmp/dyntac_dry bash … dry): the whole pipeline on this machine's CPU with 2-step stages and 8 items per split
+    mkdir -p "$W/logs" && rm -f "$W/pipeline.log"
+    [ -e "$W/bench" ] || tar xzf .gpu/data/data.tgz -C "$W"
+    sed -i "s#\"[^\"]*/sim\"#\"$PWD/$Q/sim\"#" "$W/bench/bench.json"
+    [ -e "$W/smollm2/config.json" ] || cp -r "$Q/llm" "$W/smollm2"
+    echo "reused" > "$W/sim.done"; mkdir -p "$W/sim" && cp "$Q/sim/manifest.jsonl" "$W/sim/"
+    STEPS="--set stage1.steps=2 --set stage2.steps=2" LIMIT="--limit 8" pipeline 2>&1 | tee -a "$W/pipeline.log"
+    ;;
+*)
+    echo "usage: $0 prep | setup | part 1 | part 2 | go | dry" >&2; exit 2 ;;
+esac
