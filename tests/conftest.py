@@ -5,6 +5,7 @@ from __future__ import annotations
 import socket
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -31,46 +32,62 @@ def free_port() -> Callable[[], int]:
     return _free_port
 
 
-def write_physiclear_folder(root: Path, splits: dict[str, int], clips_per_object: int = 2, frames: int = 12,
-                            size: tuple[int, int] = (48, 64), seed: int = 0) -> Path:
-    """A synthetic folder in PhysiCLeAR's layout (labels.json + videos/): ``splits`` maps a split name to its number
-    of objects; each object gets hardness/roughness/bumpiness ranks cycling through 0–2 (so every task finds
-    objects to compare) and clips of a gel pressed by a blob whose size and texture follow the ranks. No shared
-    data needed: features that read PhysiCLeAR are tested on a plain clone with it."""
-    import json
-
+def write_gel_clip(path: Path, ranks: tuple[int, int, int], rng: Any, frames: int = 12,
+                   size: tuple[int, int] = (48, 64)) -> None:
+    """One clip of a gel pressed by a blob whose size follows the hardness rank and whose texture the roughness
+    rank: what a reader of PhysiCLeAR-shaped folders needs, without the shared videos."""
     import numpy as np
 
     from tacreasoner.video_io import write_video
 
-    rng = np.random.default_rng(seed)
-    (root / "videos").mkdir(parents=True, exist_ok=True)
-    objects, k = {}, 0
     h, w = size
     yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    gel = np.full((frames, h, w, 3), 110.0, np.float32) + rng.normal(0, 2, (1, h, w, 3))
+    cy, cx = rng.uniform(0.3 * h, 0.7 * h), rng.uniform(0.3 * w, 0.7 * w)
+    for t in range(frames // 3, frames):
+        r = (3 + 2 * ranks[0]) * min(1.0, (t - frames // 3 + 1) / 3)
+        blob = np.exp(-((yy - cy) ** 2 + (xx - cx) ** 2) / (2 * r * r))
+        texture = np.sin(xx * (0.5 + ranks[1])) * 6 * blob
+        gel[t] += (blob * 40)[..., None] + texture[..., None]
+    write_video(path, np.clip(gel, 0, 255).astype(np.uint8), fps=25)
+
+
+def write_labelled_folder(root: Path, objects: dict[str, tuple[str, tuple[int, int, int] | None]],
+                          clips_per_object: int = 2, ext: str = "mp4", seed: int = 0, **clip: Any) -> Path:
+    """A folder in PhysiCLeAR's layout (labels.json + videos/) holding ``objects``: name → (split, its hardness,
+    roughness and bumpiness ranks, or None for an unlabelled object); clips ``videos/<name>_<j>.<ext>``."""
+    import json
+
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    (root / "videos").mkdir(parents=True, exist_ok=True)
+    labels = {}
+    for name, (split, ranks) in objects.items():
+        videos = [f"videos/{name}_{j}.{ext}" for j in range(clips_per_object)]
+        for rel in videos:
+            write_gel_clip(root / rel, ranks or (1, 1, 1), rng, **clip)
+        entry: dict[str, Any] = {"split": split, "videos": videos}
+        if ranks is not None:
+            entry.update(name=name.replace("_", " "), hardness=ranks[0], roughness=ranks[1], bumpiness=ranks[2])
+        labels[name] = entry
+    (root / "labels.json").write_text(json.dumps({"objects": labels}))
+    return root
+
+
+def write_physiclear_folder(root: Path, splits: dict[str, int], clips_per_object: int = 2, frames: int = 12,
+                            size: tuple[int, int] = (48, 64), seed: int = 0) -> Path:
+    """A synthetic folder in PhysiCLeAR's layout: ``splits`` maps a split name to its number of objects; each object
+    gets hardness/roughness/bumpiness ranks cycling through 0–2 (so every task finds objects to compare). No shared
+    data needed: features that read PhysiCLeAR are tested on a plain clone with it."""
+    objects: dict[str, tuple[str, tuple[int, int, int] | None]] = {}
+    k = 0
     for split, count in splits.items():
         for i in range(count):
-            name = f"{split}_object_{i}"
-            ranks = (k % 3, (k // 3) % 3, (k + 1) % 3)
+            labelled = split not in ("unlabeled", "unlabelled")
+            objects[f"{split}_object_{i}"] = (split, (k % 3, (k // 3) % 3, (k + 1) % 3) if labelled else None)
             k += 1
-            videos = []
-            for j in range(clips_per_object):
-                gel = np.full((frames, h, w, 3), 110.0, np.float32) + rng.normal(0, 2, (1, h, w, 3))
-                cy, cx = rng.uniform(0.3 * h, 0.7 * h), rng.uniform(0.3 * w, 0.7 * w)
-                for t in range(frames // 3, frames):
-                    r = (3 + 2 * ranks[0]) * min(1.0, (t - frames // 3 + 1) / 3)
-                    blob = np.exp(-((yy - cy) ** 2 + (xx - cx) ** 2) / (2 * r * r))
-                    texture = np.sin(xx * (0.5 + ranks[1])) * 6 * blob
-                    gel[t] += (blob * 40)[..., None] + texture[..., None]
-                rel = f"videos/{name}_{j}.mp4"
-                write_video(root / rel, np.clip(gel, 0, 255).astype(np.uint8), fps=25)
-                videos.append(rel)
-            entry = {"split": split, "videos": videos}
-            if split not in ("unlabeled", "unlabelled"):
-                entry.update(name=f"object {k}", hardness=ranks[0], roughness=ranks[1], bumpiness=ranks[2])
-            objects[name] = entry
-    (root / "labels.json").write_text(json.dumps({"objects": objects}))
-    return root
+    return write_labelled_folder(root, objects, clips_per_object, seed=seed, frames=frames, size=size)
 
 
 @pytest.fixture(scope="session")

@@ -1,10 +1,10 @@
-"""Scoring a PhysiCLeAR-shaped folder nobody here has seen (Octopi's test objects): a small copy made here from the
-shared videos, holding only a ``test`` split; the items built from it, the Octopi-shaped table, and bad folders."""
+"""Scoring a PhysiCLeAR-shaped folder nobody here has seen (Octopi's test objects): a small synthetic folder in its
+layout (GelSight-like .mov clips, labels.json), holding only a ``test`` split; the items built from it, the
+Octopi-shaped table and bad folders; and one real GelSight Mini clip where ../shared is beside the checkout."""
 
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import pytest
@@ -14,29 +14,23 @@ from tacreasoner.evaluate.octopi import OCTOPI_COLUMNS, octopi_table
 from tacreasoner.tasks.bench import build_folder_bench, load_bench
 from tacreasoner.tasks.scoring import score_item
 from tacreasoner.video_io import VideoError
+from tests.conftest import write_labelled_folder
 from tests.evaluate.evalsetup import save_untrained_model
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "physiclear"
-OBJECTS = {  # name → (hardness, roughness, bumpiness), as in the shared labels.json
+OBJECTS = {  # name → (hardness, roughness, bumpiness), as in PhysiCLeAR's labels.json
     "feather_duster_handle": (2, 0, 0), "steel_wool": (0, 2, 1), "tsa_lock_numbers": (2, 2, 1), "denim": (1, 1, 1),
     "millet": (1, 2, 1),
 }
 
-pytestmark = pytest.mark.skipif(not (SHARED / "labels.json").is_file(),
-                                reason="PhysiCLeAR is not beside the checkout (../shared/data/physiclear)")
 
-
-def make_folder(root: Path, split: str = "test", videos: int = 2) -> Path:
-    """labels.json + videos/ with the OBJECTS, all in one split, copied from the shared dataset."""
-    (root / "videos").mkdir(parents=True)
-    objects = {}
-    for name, (h, r, b) in OBJECTS.items():
-        files = [f"videos/{name}_{k}.mov" for k in range(videos)]
-        for rel in files:
-            shutil.copy(SHARED / rel, root / rel)
-        objects[name] = {"split": split, "name": name.replace("_", " "), "hardness": h, "roughness": r,
-                         "bumpiness": b, "videos": files}
-    (root / "labels.json").write_text(json.dumps({"dataset": "a test copy", "objects": objects}))
+def make_folder(root: Path, split: str = "test", videos: int = 2, extra: dict | None = None) -> Path:
+    """labels.json + videos/ with the OBJECTS, all in ``split``, plus ``extra`` (name → (split, ranks)); synthetic
+    .mov clips, as PhysiCLeAR ships them."""
+    objects = {name: (split, ranks) for name, ranks in OBJECTS.items()} | (extra or {})
+    root = write_labelled_folder(root, objects, clips_per_object=videos, ext="mov")
+    labels = json.loads((root / "labels.json").read_text())
+    (root / "labels.json").write_text(json.dumps({"dataset": "a synthetic copy", **labels}))
     return root
 
 
@@ -143,12 +137,19 @@ def test_octopi_table_leaves_absent_tasks_empty() -> None:
     assert table["PC"] is None and table["PSR"] is None
 
 
-def test_ask_answers_about_a_physiclear_mov_clip(folder: Path, model_dir: Path) -> None:
-    """The real-data path end to end for one clip: a GelSight Mini .mov decoded, encoded and answered."""
+REAL_CLIP = SHARED / "videos" / "denim_0.mov"
+
+
+@pytest.mark.parametrize("real", [False, pytest.param(True, marks=pytest.mark.skipif(
+    not REAL_CLIP.is_file(), reason="PhysiCLeAR is not beside the checkout (../shared/data/physiclear); CI has it"))])
+def test_ask_answers_about_a_physiclear_mov_clip(real: bool, folder: Path, model_dir: Path) -> None:
+    """The real-data path end to end for one clip: a .mov decoded, encoded and answered (the folder's synthetic one,
+    and a real GelSight Mini clip where the shared data is beside the checkout)."""
     from tacreasoner.cli import app
 
+    clip = REAL_CLIP if real else folder / "videos" / "denim_0.mov"
     question = "Here is a tactile video of an object: <tactile>\nHow does its hardness feel?"
-    result = CliRunner().invoke(app, ["ask", question, "--video", str(folder / "videos" / "denim_0.mov"), "--model",
-                                      str(model_dir), "--max-new-tokens", "4"])
+    result = CliRunner().invoke(app, ["ask", question, "--video", str(clip), "--model", str(model_dir),
+                                      "--max-new-tokens", "4"])
     assert result.exit_code == 0, result.output
     assert "answer:" in result.output

@@ -1,6 +1,6 @@
 """Retrieval augmentation (Octopi-1.5, issue 28): a benchmark whose questions carry each video's nearest train clips.
 
-A small PhysiCLeAR-shaped folder (train objects beside the val/test ones of ``test_physiclear_folder``) and an
+A small synthetic PhysiCLeAR-shaped folder (train objects beside the val/test ones of ``test_physiclear_folder``) and an
 untrained saved appearance encoder: the neighbours are whatever its features say, what is tested is what the
 transform promises whatever they are (own objects never retrieved, k, placeholders, the label words, determinism,
 paths that resolve, the commands and their errors).
@@ -9,7 +9,6 @@ paths that resolve, the commands and their errors).
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -24,13 +23,12 @@ from tacreasoner.tasks.bench import build_bench, build_folder_bench, load_bench
 from tacreasoner.tasks.schema import PLACEHOLDER
 from tacreasoner.tasks.vocab import PHYSICLEAR
 from tests.evaluate.evalsetup import ENCODER, save_untrained_model
-from tests.evaluate.test_physiclear_folder import SHARED, make_folder
+from tests.evaluate.test_physiclear_folder import make_folder
 
-pytestmark = pytest.mark.skipif(not (SHARED / "labels.json").is_file(),
-                                reason="PhysiCLeAR is not beside the checkout (../shared/data/physiclear)")
-
-TRAIN = ("aluminium_foil", "avocado_unripe", "basket", "blanket", "bread_knife_blade", "bubble_wrap")
-"""Train objects added to the folder (labels as in the shared labels.json): 6, so a 3-object item keeps 3 others."""
+TRAIN = {"aluminium_foil": (1, 0, 0), "avocado_unripe": (2, 0, 1), "basket": (1, 2, 2), "blanket": (0, 1, 0),
+         "bread_knife_blade": (2, 0, 0), "bubble_wrap": (0, 1, 2)}
+"""Train objects added to the folder (name → hardness, roughness, bumpiness ranks): 6, so a 3-object item keeps 3
+others."""
 runner = CliRunner()
 
 
@@ -40,23 +38,17 @@ def _in_process(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(train_data, "MIN_CLIPS_PER_POOL", 10**9)
 
 
-def _shared_labels() -> dict:
-    return json.loads((SHARED / "labels.json").read_text())["objects"]
+def _labels(folder: Path) -> dict:
+    return json.loads((folder / "labels.json").read_text())["objects"]
 
 
 @pytest.fixture(scope="module")
 def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The test folder's objects (denim in val, the rest in test) plus TRAIN, two videos each."""
-    root = make_folder(tmp_path_factory.mktemp("retrieval_copy") / "data")
+    root = make_folder(tmp_path_factory.mktemp("retrieval_copy") / "data",
+                       extra={name: ("train", ranks) for name, ranks in TRAIN.items()})
     labels = json.loads((root / "labels.json").read_text())
     labels["objects"]["denim"]["split"] = "val"
-    shared = _shared_labels()
-    for name in TRAIN:
-        files = shared[name]["videos"][:2]
-        for rel in files:
-            shutil.copy(SHARED / rel, root / rel)
-        labels["objects"][name] = {**{k: shared[name][k] for k in ("name", "hardness", "roughness", "bumpiness")},
-                                   "split": "train", "videos": files}
     (root / "labels.json").write_text(json.dumps(labels))
     return root
 
@@ -94,8 +86,8 @@ def _splits(bench: Path) -> list[str]:
     return [s for s in ("train", "val", "test") if (bench / f"{s}.jsonl").is_file()]
 
 
-def test_neighbours_are_k_other_objects_with_their_label_words(bench: Path, augmented: Path) -> None:
-    shared = _shared_labels()
+def test_neighbours_are_k_other_objects_with_their_label_words(folder: Path, bench: Path, augmented: Path) -> None:
+    shared = _labels(folder)
     words = {name: PHYSICLEAR["hardness"].phrase(o["hardness"]) + "; " + PHYSICLEAR["roughness"].phrase(
         o["roughness"]) + "; " + PHYSICLEAR["bumpiness"].phrase(o["bumpiness"]) for name, o in shared.items()
         if "hardness" in o}
