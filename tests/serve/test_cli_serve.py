@@ -46,6 +46,12 @@ def test_ask_errors_are_one_line(served_model: Path, clip_files: list[Path], tmp
     assert result.exit_code == 2 and "0 <tactile> placeholder(s) but 1 video" in result.output
     result = CliRunner().invoke(app, ["ask", ONE, "--video", str(clip_files[0]), "--model", str(tmp_path)])
     assert result.exit_code == 2 and "not a saved TacReasoner model" in result.output
+    for option, value, said in (("--max-new-tokens", "0", "--max-new-tokens must be at least 1, got 0"),
+                                 ("--top-p", "1.5", "--top-p must be in (0, 1], got 1.5")):
+        # the model folder is not one: the option is checked first, and named as this command names it
+        result = CliRunner().invoke(app, ["ask", ONE, "--video", str(clip_files[0]), "--model", str(tmp_path),
+                                          "--sample", option, value])
+        assert result.exit_code == 2 and said in result.output and "max_tokens" not in result.output, result.output
 
 
 def test_serve_answers_the_openai_client(served_model: Path, clip_files: list[Path]) -> None:

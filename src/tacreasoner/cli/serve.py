@@ -17,6 +17,8 @@ from tacreasoner.cli.app import app, at_least_one, cli_errors, console, needs_tr
 from tacreasoner.recipes.quickstart import QUICKSTART_DIR
 
 DEFAULT_MODEL = QUICKSTART_DIR / "model"
+ASK_OPTIONS = {"max_tokens": "--max-new-tokens", "temperature": "--temperature", "top_p": "--top-p"}
+"""The server's request field behind each of `ask`'s options (Sampling names its errors by the field)."""
 ModelDir = Annotated[Path, typer.Option("--model", help="Trained model directory (a training run's stage2/model).")]
 Host = Annotated[str, typer.Option(help="Address to listen on (0.0.0.0 for every interface).")]
 Port = Annotated[int, typer.Option(help="TCP port.")]
@@ -56,14 +58,18 @@ def ask(
 ) -> None:
     """Ask a trained model about tactile videos; streams its reasoning as it is generated, then the answer."""
     needs_train_extra("ask")
-    from tacreasoner.serve import Delta, Prompt, Reply, Sampling
+    from tacreasoner.serve import Delta, Prompt, Reply, RequestError, Sampling
 
     for path in video:
         if not path.is_file():
             raise FileNotFoundError(f"--video {path}: no such file")
+    try:  # checked before the model loads, and said in this command's words, not the server's
+        sampling = Sampling(max_new_tokens=max_new_tokens, temperature=temperature if sample else 0.0,
+                            top_p=top_p if sample else 1.0, seed=seed)
+    except RequestError as exc:
+        option = ASK_OPTIONS.get(exc.param or "", exc.param or "")
+        raise ValueError(str(exc).replace(exc.param or "", option, 1)) from None
     engine = _load_engine(model)
-    sampling = Sampling(max_new_tokens=max_new_tokens, temperature=temperature if sample else 0.0,
-                        top_p=top_p if sample else 1.0, seed=seed)
     prompt = Prompt.ask(question, [str(p) for p in video])
     if as_json:
         reply = engine.complete(prompt, sampling)
