@@ -118,14 +118,9 @@ def compare(
     out: Annotated[Path | None, typer.Option("--out", help="Directory for comparison.md/json.")] = None,
 ) -> None:
     """Paired exact McNemar test between two prediction files on the same benchmark items."""
-    from tacreasoner.evaluate.report import compare_runs, load_predictions, write_comparison
-    from tacreasoner.tasks.bench import load_bench
-    from tacreasoner.tasks.scoring import score_predictions
+    from tacreasoner.evaluate.report import compare_prediction_files, write_comparison
 
-    _, items = load_bench(bench, split)
-    records = [score_predictions(items, {i: p["prediction"] for i, p in load_predictions(path).items()}, mode)
-               for path in (a, b)]
-    comparison = compare_runs(records[0], records[1], a.stem, b.stem)
+    comparison = compare_prediction_files(a, b, bench, split, mode)
     console.print(comparison.to_markdown())
     if out is not None:
         paths = write_comparison(comparison, out)

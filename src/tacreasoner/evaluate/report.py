@@ -495,6 +495,17 @@ def compare_runs(a_records: Sequence[dict], b_records: Sequence[dict], a_name: s
     return Comparison(a_name, b_name, per_task, overall)
 
 
+def compare_prediction_files(a: str | Path, b: str | Path, bench: str | Path, split: str = "test",
+                             mode: Mode | str = "strict") -> Comparison:
+    """Score two models' prediction files on one benchmark split and pair them item by item (named by file stem)."""
+    from tacreasoner.tasks.bench import load_bench
+
+    _, items = load_bench(bench, split)
+    records = [score_predictions(items, {i: p["prediction"] for i, p in load_predictions(path).items()}, mode)
+               for path in (a, b)]
+    return compare_runs(records[0], records[1], Path(a).stem, Path(b).stem)
+
+
 def write_comparison(comparison: Comparison, out_dir: str | Path, stem: str = "comparison") -> dict[str, Path]:
     """Write ``<stem>.md`` and ``<stem>.json`` into ``out_dir``."""
     out = Path(out_dir)
