@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import math
 import subprocess
 import sys
@@ -271,6 +272,44 @@ def test_cross_video_comparator_fit_picks_by_attribute_and_comparative_then_free
     assert torch.equal(fusion.feature_mean, stats)
     with pytest.raises(ValueError, match="at least one comparison"):
         fusion.fit([], torch.zeros(0, 6), torch.zeros(0, 3, dtype=torch.long))
+
+
+def test_the_comparator_fit_moves_its_directions_as_scoring_through_compare_would() -> None:
+    """fit reads each question's attribute and sign once; the directions must end exactly where a loop that scores
+    every batch through _compare and _comparison_loss (fit's loop before it was made faster) takes them."""
+    from tacreasoner.model.heads import CrossVideoFusion
+
+    gen = torch.Generator().manual_seed(1)
+    train = [_comparisons(40, 2, gen), _comparisons(40, 3, gen)]
+    feats = [f for part in train for f in part[0]]
+    questions, targets = torch.cat([p[1] for p in train]), torch.cat([p[2] for p in train])
+    torch.manual_seed(0)
+    fast = CrossVideoFusion(8, 2, 2.0, 3, 6, tokens_per_video=2, attributes=2)
+    slow = copy.deepcopy(fast)
+    fast.fit(feats, questions, targets, steps=60, seed=3)
+
+    slow.fit(feats, questions, targets, steps=0, seed=3)  # the same statistics, ridge heads and zero directions
+    groups: dict[int, list[int]] = {}
+    for i, f in enumerate(feats):
+        groups.setdefault(len(f), []).append(i)
+    stacked = {k: (slow._normalised(torch.stack([feats[i].flatten(1) for i in rows])), questions[rows],
+                   targets[rows]) for k, rows in groups.items()}
+    place = {i: (k, r) for k, rows in groups.items() for r, i in enumerate(rows)}
+    slow.directions.requires_grad_(True)
+    optimizer = torch.optim.AdamW([slow.directions], lr=1e-2, weight_decay=0.1)
+    generator = torch.Generator().manual_seed(3)
+    for _ in range(60):
+        picked = torch.randint(0, len(feats), (16,), generator=generator).tolist()
+        loss = torch.zeros(())
+        for k, (f, asked, gold) in stacked.items():
+            rows = [place[i][1] for i in picked if place[i][0] == k]
+            if rows:
+                loss = loss + slow._comparison_loss(*slow._compare(f[rows], asked[rows]), gold[rows, 0])[0]
+        optimizer.zero_grad()
+        (loss / 16).backward()
+        optimizer.step()
+    assert fast.directions.abs().sum() > 0
+    torch.testing.assert_close(fast.directions, slow.directions.detach(), rtol=0, atol=1e-6)
 
 
 def test_the_comparator_reads_its_question_from_the_llm_s_own_rows_only() -> None:

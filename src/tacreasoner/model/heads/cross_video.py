@@ -102,6 +102,12 @@ class CrossVideoFusion(nn.Module):
         scores = (videos @ direction.unsqueeze(-1)).squeeze(-1) / videos.shape[-1] ** 0.5
         return scores, attribute_logits, more_logit
 
+    def _chosen_direction(self, asked: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Per question (S×Dq) the attribute it asks (its direction's index) and the comparative's sign (S×1):
+        what :meth:`_compare` reads from the question before scoring the videos."""
+        attribute_logits, more_logit = self.attribute(asked), self.comparative(asked).squeeze(-1)
+        return attribute_logits.argmax(-1), torch.where(more_logit >= 0, 1.0, -1.0).to(asked.dtype).unsqueeze(-1)
+
     @staticmethod
     def _comparison_loss(scores: torch.Tensor, attribute_logits: torch.Tensor, more_logit: torch.Tensor,
                          gold: torch.Tensor) -> tuple[torch.Tensor, int]:
@@ -215,16 +221,23 @@ class CrossVideoFusion(nn.Module):
         self.directions.requires_grad_(True)
         optimizer = torch.optim.AdamW([self.directions], lr=lr, weight_decay=weight_decay)
         generator = torch.Generator().manual_seed(seed)
+        # the attribute and comparative heads are fixed here, so each prompt's attribute and sign are read once;
+        # only the pick's cross-entropy moves the directions (the same arithmetic as _compare, a step at a time)
+        with torch.no_grad():
+            chosen = {k: self._chosen_direction(asked) for k, (_, asked, _) in stacked.items()}
+        group_of = torch.tensor([place[i][0] for i in range(len(videos))])
+        row_of = torch.tensor([place[i][1] for i in range(len(videos))])
         with torch.enable_grad():
             for _ in range(steps):
-                batch = torch.randint(0, len(videos), (batch_size,), generator=generator).tolist()
+                batch = torch.randint(0, len(videos), (batch_size,), generator=generator)
                 loss = torch.zeros(())
-                for k, (feats, asked, gold) in stacked.items():
-                    rows = [place[i][1] for i in batch if place[i][0] == k]
-                    if rows:
-                        # the heads are fixed here: only the pick's cross-entropy moves the directions
-                        loss = loss + self._comparison_loss(*self._compare(feats[rows], asked[rows]),
-                                                            gold[rows, 0])[0]
+                for k, (feats, _, gold) in stacked.items():
+                    rows = row_of[batch[group_of[batch] == k]]
+                    if len(rows):
+                        attribute, sign = chosen[k][0][rows], chosen[k][1][rows]
+                        direction = sign * self.directions.to(dtype)[attribute]
+                        scores = (feats[rows] @ direction.unsqueeze(-1)).squeeze(-1) / feats.shape[-1] ** 0.5
+                        loss = loss + F.cross_entropy(scores.float(), gold[rows, 0], reduction="sum")
                 optimizer.zero_grad()
                 (loss / batch_size).backward()
                 optimizer.step()
