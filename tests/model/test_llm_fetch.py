@@ -182,6 +182,18 @@ def test_convert_gguf_writes_a_plain_folder_with_the_gguf_models_logits(tiny_ggu
         assert torch.equal(plain.state_dict()[hf_name], values)
 
 
+def test_convert_gguf_draws_no_progress_bar_into_a_piped_log(tiny_gguf: Path, tmp_path: Path,
+                                                               capfd: pytest.CaptureFixture[str]) -> None:
+    """Under pytest stderr is not a terminal, as in a CI log or `… > run.log`: transformers' tqdm bar stays out
+    of it, and transformers is left as it was."""
+    import transformers.modeling_gguf_pytorch_utils as gguf_utils
+
+    bar = gguf_utils.tqdm
+    convert_gguf(tiny_gguf, tmp_path / "out")
+    assert "de-quantizing" not in capfd.readouterr().err
+    assert gguf_utils.tqdm is bar
+
+
 def test_convert_gguf_without_the_gguf_package_says_how_to_get_it(tmp_path: Path,
                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, "gguf", None)  # `import gguf` now raises ImportError

@@ -12,6 +12,7 @@ with them must say so. The folder is written atomically, and a second call finds
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -197,12 +198,21 @@ def convert_gguf(gguf: Path, out: Path, *, max_length: int | None = None) -> dic
     from transformers import AutoModelForCausalLM, AutoTokenizer
 
     folder, name = str(gguf.parent), gguf.name
+    # transformers' GGUF conversion draws a tqdm bar of its own; in a piped log it is a heap of half-drawn bars
+    import transformers.modeling_gguf_pytorch_utils as gguf_utils
+
+    bar = getattr(gguf_utils, "tqdm", None)
     try:
+        if bar is not None and not sys.stderr.isatty():
+            gguf_utils.tqdm = functools.partial(bar, disable=True)
         tokenizer = AutoTokenizer.from_pretrained(folder, gguf_file=name)
         loaded = AutoModelForCausalLM.from_pretrained(folder, gguf_file=name, dtype=torch.float32)
     except Exception as exc:  # the library's own errors are long and deep: one line saying which file
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
         raise LLMFetchError(f"{gguf}: transformers could not read it as a GGUF causal LM ({first})") from exc
+    finally:
+        if bar is not None:
+            gguf_utils.tqdm = bar
     config = loaded.config
     if hasattr(config, "quantization_config"):
         del config.quantization_config
