@@ -76,9 +76,6 @@ def restore_trainable(accelerator: Any, trained: torch.nn.Module, optimizer: Any
 def save_engine_state(accelerator: Any, staging: Path) -> None:
     """DeepSpeed's own files (optimizer partitions, its step), from every process, into the staging directory."""
     if engine_saves_optimizer(accelerator):
-        # every process makes the folder: Accelerate makes it on the main process only, and another process's
-        # partition could reach it first (seen under load: "Parent directory …/engine does not exist")
-        (staging / ENGINE_DIR).mkdir(parents=True, exist_ok=True)
         accelerator.save_state(str(staging / ENGINE_DIR), exclude_frozen_parameters=True)
 
 
