@@ -1,8 +1,13 @@
-"""Shared fixtures: one small simulated dataset per test session (rendering is the slow part), free ports."""
+"""Shared fixtures: one small simulated dataset per test run (rendering is the slow part), free ports.
+
+The suite runs in parallel processes (pytest-xdist, the README's test command): :func:`tests.shared.built_once`
+builds an expensive read-only input once for the whole run, shared by every worker, instead of once per worker."""
 
 from __future__ import annotations
 
+import os
 import socket
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -10,14 +15,26 @@ from typing import Any
 import pytest
 
 from tacreasoner.sim.generate import generate_dataset
+from tests.shared import built_once
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Under pytest-xdist the workers share the cores: each gets its share as its torch threads and, through
+    OMP_NUM_THREADS (which ``train.threads.available_cores`` reads), decodes training videos in-process instead of
+    starting decoding processes of its own. Tests of more processes ask for them explicitly."""
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    if os.environ.get("PYTEST_XDIST_WORKER") and workers > 1 and "OMP_NUM_THREADS" not in os.environ:
+        threads = max(1, (os.cpu_count() or 1) // workers)
+        os.environ["OMP_NUM_THREADS"] = str(threads)
+        if "torch" in sys.modules:
+            sys.modules["torch"].set_num_threads(threads)
 
 
 @pytest.fixture(scope="session")
 def small_sim_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """14 objects (10 fruit, so real and fake in every split) × 2 repeats × Mini and DIGIT."""
-    root = tmp_path_factory.mktemp("small_sim")
-    generate_dataset(root, n_objects=14, repeats=2, sensors=["mini", "digit"], seed=3, workers=2)
-    return root
+    return built_once(tmp_path_factory, "small_sim", lambda root: generate_dataset(
+        root, n_objects=14, repeats=2, sensors=["mini", "digit"], seed=3, workers=2))
 
 
 def _free_port() -> int:
@@ -93,8 +110,8 @@ def write_physiclear_folder(root: Path, splits: dict[str, int], clips_per_object
 @pytest.fixture(scope="session")
 def physiclear_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A small synthetic PhysiCLeAR-shaped folder: 9 train, 4 val, 3 test and 2 unlabelled objects."""
-    return write_physiclear_folder(tmp_path_factory.mktemp("physiclear"),
-                                   {"train": 9, "val": 4, "test": 3, "unlabeled": 2})
+    return built_once(tmp_path_factory, "physiclear", lambda root: write_physiclear_folder(
+        root, {"train": 9, "val": 4, "test": 3, "unlabeled": 2}))
 
 
 @pytest.fixture

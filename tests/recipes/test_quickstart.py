@@ -54,7 +54,7 @@ def test_a_broken_settings_file_is_named(tmp_path: Path) -> None:
 
 @pytest.fixture(scope="module")
 def inputs(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> dict:
-    return training_inputs(small_sim_dataset, tmp_path_factory.mktemp("train_inputs_qs"))
+    return training_inputs(small_sim_dataset, tmp_path_factory)
 
 
 @pytest.fixture(scope="module")

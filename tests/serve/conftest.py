@@ -10,17 +10,21 @@ import pytest
 from tacreasoner.video_io import write_video
 from tests.evaluate.evalsetup import save_untrained_model
 from tests.serve.served import REPLIES, TEXTS, press_clip
+from tests.shared import built_once
 
 
 @pytest.fixture(scope="session")
 def served_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A tiny model taught two fixed replies (a few seconds of training), so that streams carry reasoning, an
     answer and an end of turn like a trained model's; other questions get its noise."""
+    return built_once(tmp_path_factory, "served", _teach_two_replies) / "taught"
+
+
+def _teach_two_replies(root: Path) -> None:
     import torch
 
     from tacreasoner.model.build import load_model, save_model
 
-    root = tmp_path_factory.mktemp("served")
     model, processor = load_model(save_untrained_model(TEXTS, root, vocab_size=400))
     examples = [processor.example(q, a, [press_clip(k) for k in range(q.count("<tactile>"))])
                 for q, a in REPLIES.items()]
@@ -33,7 +37,7 @@ def served_model(tmp_path_factory: pytest.TempPathFactory) -> Path:
         loss.backward()
         optimizer.step()
         optimizer.zero_grad()
-    return save_model(model.eval(), processor, root / "taught")
+    save_model(model.eval(), processor, root / "taught")
 
 
 @pytest.fixture(scope="session")

@@ -4,7 +4,8 @@
 
 Reads a ``TrainConfig.to_dict()`` JSON, runs ``train_stage(config, STAGE)`` (default 2) and writes this process's final
 trainable parameters to ``OUT_DIR/rank{RANK}.safetensors`` (and its last torch seed to ``rank{RANK}.json``);
-``POISON=RANK:STEP`` makes that process's loss NaN at that step; ``STOP_AFTER=N`` ends the run after N steps without
+``POISON=RANK:STEP`` makes that process's loss NaN at that step; ``COMPARATOR_FIT_STEPS=N`` fits the comparator
+with N AdamW steps (``trainsetup.fewer_comparator_fit_steps``); ``STOP_AFTER=N`` ends the run after N steps without
 the final save (a killed run), ``RESUME=1`` resumes it; ``ENGINE=fsdp`` trains under FSDP2 (see
 :func:`fsdp_on_the_cpu`), ``ENGINE=deepspeed`` under DeepSpeed ZeRO-2 (see :func:`deepspeed_on_the_cpu`). The
 trainer saves on the main process only, so the weights are caught with :func:`capture_trainable_weights` (also used
@@ -125,6 +126,11 @@ def main(config_json: str, out_dir: str, stage: str = "2") -> None:
 
     fits, fit = [], heads.fit_heads  # which processes fit the read-out heads (the main one only)
     heads.fit_heads = lambda *args, **kwargs: fits.append(1) or fit(*args, **kwargs)
+    if os.environ.get("COMPARATOR_FIT_STEPS"):
+        sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the checkout: tests.train is importable
+        from tests.train.trainsetup import fewer_comparator_fit_steps
+
+        fewer_comparator_fit_steps(int(os.environ["COMPARATOR_FIT_STEPS"]))
     stop_after = int(os.environ["STOP_AFTER"]) if os.environ.get("STOP_AFTER") else None
     if os.environ.get("ENGINE") == "deepspeed":
         deepspeed_on_the_cpu()

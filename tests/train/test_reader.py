@@ -11,7 +11,7 @@ from tests.train.trainsetup import training_inputs
 
 @pytest.fixture(scope="module")
 def inputs(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    return training_inputs(small_sim_dataset, tmp_path_factory.mktemp("train_inputs"))
+    return training_inputs(small_sim_dataset, tmp_path_factory)
 
 
 def test_clip_labels_gather_each_train_clip_traits_from_its_single_clip_items(inputs) -> None:

@@ -14,7 +14,7 @@ from tests.train.trainsetup import tiny_config, training_inputs
 
 @pytest.fixture(scope="module")
 def inputs(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> dict:
-    return training_inputs(small_sim_dataset, tmp_path_factory.mktemp("train_inputs_run"))
+    return training_inputs(small_sim_dataset, tmp_path_factory)
 
 
 def test_distributed_config_keeps_the_global_batch_and_refuses_an_uneven_split(inputs: dict, tmp_path: Path) -> None:

@@ -17,7 +17,7 @@ from tests.train.trainsetup import tiny_config, training_inputs
 
 @pytest.fixture(scope="module")
 def inputs(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    return training_inputs(small_sim_dataset, tmp_path_factory.mktemp("train_inputs"))
+    return training_inputs(small_sim_dataset, tmp_path_factory)
 
 
 @pytest.fixture(scope="module")
@@ -258,9 +258,11 @@ def test_evaluate_and_ask_commands_on_a_trained_model(two_stage_run: Path, input
     assert result.exit_code == 2 and "2 <tactile> placeholder(s) but 1 video(s)" in result.output
 
 
-def test_stage_two_fits_the_comparator_first_and_keeps_it_frozen(inputs, tmp_path) -> None:
+def test_stage_two_fits_the_comparator_first_and_keeps_it_frozen(inputs, tmp_path, request) -> None:
     from tacreasoner.model.build import load_model
-    from tests.train.trainsetup import ENCODER
+    from tests.train.trainsetup import ENCODER, fewer_comparator_fit_steps
+
+    request.addfinalizer(fewer_comparator_fit_steps())  # where and when it is fitted, not how well: fewer steps
 
     def run(out: Path, steps: int) -> tuple[dict, TacReasonerForCausalLM]:
         config = tiny_config(inputs, out, stage1={"skip": True}, stage2={"steps": steps},

@@ -1,4 +1,4 @@
-"""A tiny but real training setup, built once per test session: benchmark, TouchCoT, and a tiny LLM on disk.
+"""A tiny but real training setup, built once per test run: benchmark, TouchCoT, and a tiny LLM on disk.
 
 The LLM is a 2-layer Qwen2 with a BPE tokenizer trained on the TouchCoT texts, saved the way
 ``pretrain-llm`` saves one, so the trainer takes exactly the path it takes with the real tiny LLM or a
@@ -8,21 +8,28 @@ Qwen2.5 checkpoint. The appearance ViT is randomly initialised (no ``pretrain-en
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from tacreasoner.train.config import TrainConfig
+import pytest
 
-_BUILT: dict[Path, dict[str, Path]] = {}
+from tacreasoner.train.config import TrainConfig
+from tests.shared import built_once
 
 ENCODER = {"num_frames": 4, "image_size": [32, 32], "patch_size": 8, "hidden_size": 32, "num_layers": 1,
            "num_heads": 2, "temporal_hidden_size": 32, "temporal_tokens": 2, "fusion_heads": 2, "tokens_per_video": 3}
 
 
-def training_inputs(dataset: Path, workdir: Path) -> dict[str, Path]:
-    """{bench, touchcot, llm} built from the session's small simulated dataset (once)."""
-    if dataset in _BUILT:
-        return _BUILT[dataset]
+def training_inputs(dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """{bench, touchcot, llm} built from the run's small simulated dataset ``dataset`` (once per test run, shared
+    by the pytest-xdist workers: read-only)."""
+    workdir = built_once(tmp_path_factory, "train_inputs", lambda folder: _build_training_inputs(dataset, folder))
+    return {"bench": workdir / "bench", "touchcot": workdir / "cot" / "touchcot" / "touchcot_train.jsonl",
+            "llm": workdir / "llm"}
+
+
+def _build_training_inputs(dataset: Path, workdir: Path) -> None:
     from transformers import Qwen2Config, Qwen2ForCausalLM
 
     from tacreasoner.cot.backends import TeacherConfig
@@ -47,8 +54,6 @@ def training_inputs(dataset: Path, workdir: Path) -> dict[str, Path]:
     torch.manual_seed(0)
     Qwen2ForCausalLM(config).save_pretrained(llm)
     tokenizer.save_pretrained(llm)
-    _BUILT[dataset] = {"bench": bench, "touchcot": touchcot, "llm": llm}
-    return _BUILT[dataset]
 
 
 def tiny_config(inputs: dict[str, Path], output_dir: Path, **sections: Any) -> TrainConfig:
@@ -69,3 +74,24 @@ def tiny_config(inputs: dict[str, Path], output_dir: Path, **sections: Any) -> T
         else:
             data[key] = value
     return TrainConfig.from_dict(data)
+
+
+COMPARATOR_FIT_STEPS = 100
+"""AdamW steps of each comparator fit in tests that check where and when the comparator is fitted, not how well it
+picks (``CrossVideoFusion.fit`` takes 1500; Stage II fits one copy per set of held-out folds, 23 on the tiny setup,
+and the kept one, so the default costs minutes here; tests/model/test_modeling.py checks the quality of a fit)."""
+
+
+def fewer_comparator_fit_steps(steps: int = COMPARATOR_FIT_STEPS) -> Callable[[], None]:
+    """Make every comparator fit take ``steps`` AdamW steps unless its caller says otherwise; returns the undo."""
+    from functools import partialmethod
+
+    from tacreasoner.model.heads.cross_video import CrossVideoFusion
+
+    fit = CrossVideoFusion.fit
+    CrossVideoFusion.fit = partialmethod(fit, steps=steps)  # type: ignore[method-assign]
+
+    def undo() -> None:
+        CrossVideoFusion.fit = fit  # type: ignore[method-assign]
+
+    return undo

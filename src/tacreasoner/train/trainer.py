@@ -440,6 +440,9 @@ def _checkpoint(accelerator: Any, config: TrainConfig, stage: int, trained: Any,
             fresh_staging_dir(ckpt_dir, done)
         accelerator.wait_for_everyone()
         save_engine_state(accelerator, staging_dir(ckpt_dir, done))
+        # every process has written its files (Accelerate's random_states_<rank>.pkl last) before the main one
+        # renames the directory: a slower process otherwise finds it gone
+        accelerator.wait_for_everyone()
     weights, optim_state = gather_trainable(accelerator, trained, optimizer)
     if accelerator.is_main_process:
         save_checkpoint(ckpt_dir, done, weights, optim_state, scheduler, keep=config.runtime.keep_checkpoints,
