@@ -97,16 +97,19 @@ class CrossVideoFusion(nn.Module):
         comparative's logit (more). The attribute and the way are discrete choices: a blend of directions, mapped
         from the question, fitted the train questions but not unseen objects (comparator_probe.md)."""
         attribute_logits, more_logit = self.attribute(asked), self.comparative(asked).squeeze(-1)
-        sign = torch.where(more_logit >= 0, 1.0, -1.0).to(asked.dtype).unsqueeze(-1)
-        direction = sign * self.directions.to(asked.dtype)[attribute_logits.argmax(-1)]
-        scores = (videos @ direction.unsqueeze(-1)).squeeze(-1) / videos.shape[-1] ** 0.5
-        return scores, attribute_logits, more_logit
+        attribute, sign = self._chosen_direction(attribute_logits, more_logit)
+        return self._scores(videos, attribute, sign), attribute_logits, more_logit
 
-    def _chosen_direction(self, asked: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Per question (S×Dq) the attribute it asks (its direction's index) and the comparative's sign (S×1):
-        what :meth:`_compare` reads from the question before scoring the videos."""
-        attribute_logits, more_logit = self.attribute(asked), self.comparative(asked).squeeze(-1)
-        return attribute_logits.argmax(-1), torch.where(more_logit >= 0, 1.0, -1.0).to(asked.dtype).unsqueeze(-1)
+    @staticmethod
+    def _chosen_direction(attribute_logits: torch.Tensor, more_logit: torch.Tensor
+                          ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Per question the attribute it asks (its direction's index) and the comparative's sign (S×1)."""
+        return attribute_logits.argmax(-1), torch.where(more_logit >= 0, 1.0, -1.0).to(more_logit.dtype).unsqueeze(-1)
+
+    def _scores(self, videos: torch.Tensor, attribute: torch.Tensor, sign: torch.Tensor) -> torch.Tensor:
+        """videos S×k×W (standardised) along each prompt's signed direction: S×k scores."""
+        direction = sign * self.directions.to(videos.dtype)[attribute]
+        return (videos @ direction.unsqueeze(-1)).squeeze(-1) / videos.shape[-1] ** 0.5
 
     @staticmethod
     def _comparison_loss(scores: torch.Tensor, attribute_logits: torch.Tensor, more_logit: torch.Tensor,
@@ -224,7 +227,8 @@ class CrossVideoFusion(nn.Module):
         # the attribute and comparative heads are fixed here, so each prompt's attribute and sign are read once;
         # only the pick's cross-entropy moves the directions (the same arithmetic as _compare, a step at a time)
         with torch.no_grad():
-            chosen = {k: self._chosen_direction(asked) for k, (_, asked, _) in stacked.items()}
+            chosen = {k: self._chosen_direction(self.attribute(asked), self.comparative(asked).squeeze(-1))
+                      for k, (_, asked, _) in stacked.items()}
         group_of = torch.tensor([place[i][0] for i in range(len(videos))])
         row_of = torch.tensor([place[i][1] for i in range(len(videos))])
         with torch.enable_grad():
@@ -234,9 +238,7 @@ class CrossVideoFusion(nn.Module):
                 for k, (feats, _, gold) in stacked.items():
                     rows = row_of[batch[group_of[batch] == k]]
                     if len(rows):
-                        attribute, sign = chosen[k][0][rows], chosen[k][1][rows]
-                        direction = sign * self.directions.to(dtype)[attribute]
-                        scores = (feats[rows] @ direction.unsqueeze(-1)).squeeze(-1) / feats.shape[-1] ** 0.5
+                        scores = self._scores(feats[rows], chosen[k][0][rows], chosen[k][1][rows])
                         loss = loss + F.cross_entropy(scores.float(), gold[rows, 0], reduction="sum")
                 optimizer.zero_grad()
                 (loss / batch_size).backward()
