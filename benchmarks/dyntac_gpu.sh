@@ -28,7 +28,9 @@
 # set-up ~2.5 min of lease (start, install, a 62 s simulation at 15 workers, llm get 53 s, the clip cache 94 s);
 # with all 18 chains at once Stage I took ~95 s of training (0.3 s/step), Stage II ~180 s of set-up (mostly
 # fitting the read-out heads on the CPU) and then 0.45-0.55 s/step, so one chain needs ~15 min: more than a 15-minute
-# lease holds. Run a subset per lease (VARIANTS, SEEDS), e.g. VARIANTS="rec no_stage2" first.
+# lease holds. Run a subset per lease (VARIANTS, SEEDS). With 3 chains at once (VARIANTS="rec no_stage2" THREADS=4,
+# the second lease) Stage I took ~70 s a run, Stage II ~225 s (set-up included) and a scoring ~25 s: the set-up and
+# about two variants x 3 seeds fit one lease.
 set -u
 export PYTHONUNBUFFERED=1 PYTHONPATH=/tmp/site:$PWD/src
 W=${W:-/tmp/w}
@@ -42,6 +44,7 @@ read -r -a VARIANTS <<< "${VARIANTS:-rec no_dyn no_qcond cot no_stage1 no_stage2
 read -r -a SEEDS <<< "${SEEDS:-0 1 2}"
 STEPS=${STEPS:-}                           # dry runs: e.g. "--set stage1.steps=2 --set stage2.steps=2"
 LIMIT=${LIMIT:-}                           # dry runs: e.g. "--limit 8"
+THREADS=${THREADS:-1}                      # CPU threads per chain (heads' fits, data): 1 with 18 chains on 16 cores
 say() { echo "[$(date +%H:%M:%S)] $*"; }
 
 declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
@@ -126,7 +129,7 @@ pipeline() {
     done
     say "${#VARIANTS[@]} variants x ${#SEEDS[@]} seeds at once, until $(date -d "@$deadline" +%H:%M:%S)"
     for v in "${VARIANTS[@]}"; do for s in "${SEEDS[@]}"; do
-        (renice -n "${NICE[$v]}" -p "$BASHPID" > /dev/null; OMP_NUM_THREADS=1 chain "$v" "$s") &
+        (renice -n "${NICE[$v]}" -p "$BASHPID" > /dev/null; OMP_NUM_THREADS=$THREADS chain "$v" "$s") &
     done; done
     while [ "$(date +%s)" -lt "$deadline" ] && [ -n "$(jobs -r)" ]; do sleep 3; done
     if [ -n "$(jobs -r)" ]; then
@@ -146,7 +149,8 @@ prep)
         # huggingface_hub stays the image's: the newest needs httpx2, which the image lacks
         python3 -m pip download -q --no-deps --only-binary=:all: --python-version 3.12 --implementation cp \
             --platform manylinux_2_28_x86_64 --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 \
-            -d .gpu/whl av==18.1.0 transformers==5.24.0 gguf==0.19.0 efficientnet-lite-pytorch==0.1.0 || exit 1
+            -d .gpu/whl av==18.1.0 transformers==5.24.0 gguf==0.19.0 || exit 1
+        python3 -m pip download -q --no-deps -d .gpu/whl efficientnet-lite-pytorch==0.1.0 || exit 1  # pure Python
     fi
     cp -r "$Q/bench" "$Q/encoder" .gpu/stage/ && cp "$COT" .gpu/stage/touchcot_train.jsonl
     tar czf .gpu/data/data.tgz -C .gpu/stage bench encoder touchcot_train.jsonl && rm -rf .gpu/stage
