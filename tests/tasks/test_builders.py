@@ -347,3 +347,44 @@ def test_bad_requests_raise(clips: list[TactileClip]) -> None:
                       labels={"vtv150k": {"hardness": 5}})
     with pytest.raises(ValueError, match=r"'x/bad'.*must be 0, 1 or 2"):
         build_tfa([bad], "hardness")
+
+
+def test_every_task_has_one_registered_builder_in_its_family_module():
+    from tacreasoner.tasks.builders import builder_for
+    from tacreasoner.tasks.building import TASK_BUILDERS
+    from tacreasoner.tasks.schema import TASKS
+
+    assert set(TASK_BUILDERS) == set(TASKS)
+    for task in TASKS:
+        assert builder_for(task).__module__.startswith("tacreasoner.tasks.families."), task
+    with pytest.raises(ValueError, match="no builder registered for task 'XYZ'"):
+        builder_for("XYZ")
+
+
+def test_registering_a_task_twice_is_refused_and_leaves_the_first_builder():
+    from tacreasoner.tasks.building import TASK_BUILDERS, register
+
+    first = TASK_BUILDERS["SFD"]
+    with pytest.raises(ValueError, match="task 'SFD' already has a builder"):
+        register("SFD")(lambda clips, n, ctx: [])
+    assert TASK_BUILDERS["SFD"] is first
+
+
+def test_a_new_family_is_built_through_the_registry(monkeypatch):
+    """What a new task family does: register a builder; build_items then runs it with the task's own context."""
+    from tacreasoner.tasks import builders
+    from tacreasoner.tasks.building import TASK_BUILDERS, register
+
+    seen = {}
+
+    def fake(clips, n, ctx):
+        seen.update(task=ctx.task, split=ctx.split, n=n, clips=len(clips))
+        return ctx.finish()
+
+    monkeypatch.setitem(TASK_BUILDERS, "SOI", TASK_BUILDERS["SOI"])  # restored after the test
+    del TASK_BUILDERS["SOI"]
+    register("SOI")(fake)
+    items, report = builders.build_items_with_report(make_clips(6, 1), tasks=["SOI"], vocabulary="vtv150k",
+                                                     split="val", seed=0, per_task=3)
+    assert items == [] and seen == {"task": "SOI", "split": "val", "n": 3, "clips": 6}
+    assert report.tasks["SOI"].built == 0

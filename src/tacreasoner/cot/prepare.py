@@ -26,13 +26,12 @@ import numpy as np
 from tacreasoner.cot.schema import STAGES, CoTJob, VideoCues
 from tacreasoner.data.cues import FrameSignals, clip_cues, frame_signals
 from tacreasoner.jsonl import atomic_write_text
-from tacreasoner.tasks.schema import PHASE_TO_STATE, TASKS, QAItem, VideoRef
+from tacreasoner.tasks.schema import PHASE_TO_STATE, TASKS, ZERO_SHOT_TASKS, QAItem, VideoRef
 
 __all__ = [
     "ACTION_STAGES",
     "ATTRIBUTE_STAGES",
     "CUE_VERSION",
-    "ZERO_SHOT_TASKS",
     "CueCache",
     "PrepareStats",
     "clip_cue_table",
@@ -42,8 +41,6 @@ __all__ = [
 
 CUE_VERSION = "touchcot-cues-v1"
 """Bump when the cue computation changes: cached tables of another version are recomputed."""
-ZERO_SHOT_TASKS = ("TSA",)
-"""Never in TouchCoT: TSA is evaluated zero-shot."""
 ACTION_STAGES = ("slide", "rotate")
 ACTION = "action"
 """Placeholder in :data:`ATTRIBUTE_STAGES` for the clip's own action (slide or rotate)."""

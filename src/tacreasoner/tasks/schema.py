@@ -47,6 +47,8 @@ CONTACT_STATES = ("pressing", "holding", "sliding", "rotating", "releasing")
 PHASE_TO_STATE = {"press": "pressing", "hold": "holding", "slide": "sliding", "rotate": "rotating",
                   "release": "releasing"}
 SPLITS = ("train", "val", "test")
+ZERO_SHOT_TASKS = ("TSA",)
+"""Tasks never trained on (no train-split items, no TouchCoT): TSA is evaluated zero-shot."""
 
 
 @dataclass(frozen=True)
