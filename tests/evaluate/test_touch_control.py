@@ -421,3 +421,24 @@ def test_touch_control_runs_end_to_end(model_dir: Path, bench: Path, tmp_path: P
         assert control.predictions[touch] == predictions_path(tmp_path / "out", "val", touch)
     with pytest.raises(ValueError, match="limit must be at least 1"):
         touch_control.run_touch_control(model_dir, bench, "val", tmp_path / "out", limit=0)
+
+
+def test_a_finished_predictions_file_is_not_answered_again_and_loads_no_model(model_dir: Path, bench: Path,
+                                                                              tmp_path: Path, monkeypatch) -> None:
+    """answer_with_model (predict_split's and the quickstart's evaluation) loads the model only for work left."""
+    from tacreasoner.evaluate import predict
+
+    info, items = load_bench(bench, "test")
+    path = tmp_path / "seed0.jsonl"
+    predict.answer_with_model(model_dir, bench, info, items[:2], path, max_new_tokens=2)
+    before = path.read_text()
+    assert len(before.splitlines()) == 2
+
+    def no_load(*args: Any, **kwargs: Any) -> Any:
+        raise AssertionError("the model was loaded although every item was answered")
+
+    monkeypatch.setattr(predict, "load_trained", no_load)
+    predict.answer_with_model(model_dir, bench, info, items[:2], path, max_new_tokens=2)
+    assert path.read_text() == before
+    with pytest.raises(AssertionError, match="the model was loaded"):
+        predict.answer_with_model(model_dir, bench, info, items[:3], path, max_new_tokens=2)

@@ -24,9 +24,8 @@ import torch
 
 from tacreasoner.tasks.schema import QAItem
 
-__all__ = ["TOUCH_MODES", "answerer_id", "blank_video", "check_touch", "load_trained", "predict_items",
-           "predict_split",
-           "predictions_path", "set_aside_stale", "shuffle_videos"]
+__all__ = ["TOUCH_MODES", "answer_with_model", "answerer_id", "blank_video", "check_touch", "load_trained",
+           "predict_items", "predict_split", "predictions_path", "set_aside_stale", "shuffle_videos"]
 
 TOUCH_MODES = ("real", "blank", "shuffled")
 """What the model gets as touch: the item's own videos, a featureless clip, or other items' videos."""
@@ -298,6 +297,23 @@ def _key_name(key: VideoKey, root: Path) -> str:
     return name if key[1] is None and key[2] is None else f"{name}[{key[1] or ''}:{key[2] or ''}]"
 
 
+def answer_with_model(model_dir: Path, bench: Path, info: Any, items: Sequence[QAItem], path: Path, *,
+                      batch_size: int = 32, max_new_tokens: int = 256, touch: str = "real", touch_seed: int = 0,
+                      video_cache: Path | None = None, progress: Callable[[int, int], None] | None = None) -> Path:
+    """Answer ``items`` of the benchmark ``bench`` (``info``: its ``bench.json``) with the saved model in
+    ``model_dir`` into ``path``, resuming it. The model is loaded only when an item is left to answer, so a finished
+    file costs no model load (a re-run quickstart, a resumed evaluation)."""
+    from tacreasoner.train.data import bench_video_root
+
+    who = answerer_id(model_dir, bench)
+    if {item.id for item in items} <= _done_ids(path, touch, touch_seed, who):
+        return path
+    model, processor = load_trained(model_dir)
+    return predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
+                         max_new_tokens=max_new_tokens, progress=progress, touch=touch, touch_seed=touch_seed,
+                         answered_by=who, video_cache=video_cache)
+
+
 def predict_split(model_dir: Path, bench: Path, split: str, out: Path, *, batch_size: int = 32,
                   max_new_tokens: int = 256, limit: int | None = None, touch: str = "real", touch_seed: int = 0,
                   video_cache: Path | None = None) -> tuple[list[QAItem], Path]:
@@ -306,17 +322,14 @@ def predict_split(model_dir: Path, bench: Path, split: str, out: Path, *, batch_
     folder to read and fill (a training run's), so that models answering the same clips decode them once."""
     from tacreasoner.progress import ClipProgress
     from tacreasoner.tasks.bench import load_bench
-    from tacreasoner.train.data import bench_video_root
 
     info, items = load_bench(bench, split)
     items = items[:limit] if limit else items
     if not items:
         raise ValueError(f"{bench}: split {split!r} has no items")
-    model, processor = load_trained(model_dir)
     path = predictions_path(out, split, touch)
     label = split if touch == "real" else f"{split} ({touch} touch)"
     with ClipProgress(f"answering {label}", "items") as bar:
-        predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
-                      max_new_tokens=max_new_tokens, progress=bar, touch=touch, touch_seed=touch_seed,
-                      answered_by=answerer_id(model_dir, bench), video_cache=video_cache)
+        answer_with_model(model_dir, bench, info, items, path, batch_size=batch_size, max_new_tokens=max_new_tokens,
+                          touch=touch, touch_seed=touch_seed, video_cache=video_cache, progress=bar)
     return items, path

@@ -27,6 +27,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from tacreasoner.recipes.run_folder import RunFolder
+
 __all__ = ["RECIPE_CONFIG", "RecipePaths", "recipe_config", "run_recipe"]
 
 RECIPE_CONFIG = Path(__file__).with_name("physiclear-smollm2-cpu.yaml")
@@ -34,24 +36,8 @@ RECIPE_CONFIG = Path(__file__).with_name("physiclear-smollm2-cpu.yaml")
 
 
 @dataclass(frozen=True)
-class RecipePaths:
-    root: Path
-    llm: Path
-
-    @property
-    def encoder(self) -> Path:
-        return self.root / "encoder"
-
-    @property
-    def bench(self) -> Path:
-        return self.root / "bench"
-
-    @property
-    def video_cache(self) -> Path:
-        return self.root / "video_cache"
-
-    def train(self, seed: int) -> Path:
-        return self.root / "train" / f"seed{seed}"
+class RecipePaths(RunFolder):
+    """The PhysiCLeAR recipe's run folder: each seed's model and each wording's val scoring besides the shared parts."""
 
     def model(self, seed: int) -> Path:
         return self.train(seed) / "stage2" / "model"
@@ -63,13 +49,7 @@ class RecipePaths:
 def recipe_config(paths: RecipePaths, seed: int, config: str | Path | None = None,
                   overrides: dict[str, Any] | None = None) -> Any:
     """The training config of one seed: the shipped recipe (or ``config``) pointed at this run's parts."""
-    from tacreasoner.train.config import load_train_config
-
-    return load_train_config(config or RECIPE_CONFIG, {
-        "output_dir": str(paths.train(seed)), "seed": seed, "model.llm": str(paths.llm),
-        "model.appearance": str(paths.encoder), "data.bench": str(paths.bench),
-        "data.video_cache": str(paths.video_cache), **(overrides or {})})
-
+    return paths.train_config(seed, config or RECIPE_CONFIG, overrides)
 
 def run_recipe(data: str | Path, out: str | Path, *, seeds: Sequence[int] = (0,), llm: str | Path | None = None,
                config: str | Path | None = None, overrides: dict[str, Any] | None = None, evaluate: bool = True,
@@ -82,7 +62,7 @@ def run_recipe(data: str | Path, out: str | Path, *, seeds: Sequence[int] = (0,)
     from tacreasoner.train.run import stage_done
 
     data, root = Path(data), Path(out)
-    paths = RecipePaths(root, Path(llm) if llm is not None else root / "llm")
+    paths = RecipePaths(root, Path(llm) if llm is not None else None)
     labelled = {c.split for c in read_physiclear(data, on_error="raise") if c.labels.get("physiclear")}
     if "train" not in labelled:
         raise ValueError(f"{data}/labels.json: no labelled object has split 'train' (splits: "

@@ -58,13 +58,7 @@ class QuickstartSettings:
 def quickstart_config(paths: QuickstartPaths, seed: int, config: str | Path | None = None,
                       overrides: dict[str, Any] | None = None) -> Any:
     """The training config of one seed (the shipped one, or ``config``) pointed at this run folder's parts."""
-    from tacreasoner.train.config import load_train_config
-
-    return load_train_config(config or QuickstartSettings.load().train_config, {
-        "output_dir": str(paths.train(seed)), "seed": seed, "model.llm": str(paths.llm),
-        "model.appearance": str(paths.encoder), "data.bench": str(paths.bench),
-        "data.video_cache": str(paths.video_cache), **(overrides or {})})
-
+    return paths.train_config(seed, config or QuickstartSettings.load().train_config, overrides)
 
 @dataclass(frozen=True)
 class Stage:

@@ -7,15 +7,15 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from tacreasoner.recipes.run_folder import RunFolder
+
 __all__ = ["QuickstartPaths", "baselines", "bench", "encoder", "llm", "preview", "simulate"]
 
 
 @dataclass(frozen=True)
-class QuickstartPaths:
-    """Where each stage writes inside the run folder (``llm``: an LLM folder given instead of the fetched one)."""
-
-    root: Path
-    llm_dir: Path | None = None
+class QuickstartPaths(RunFolder):
+    """Where each stage writes inside the quickstart's run folder (``llm_dir``: an LLM folder given instead of the
+    fetched one)."""
 
     @property
     def sim(self) -> Path:
@@ -26,27 +26,8 @@ class QuickstartPaths:
         return self.root / "preview"
 
     @property
-    def bench(self) -> Path:
-        return self.root / "bench"
-
-    @property
     def baselines(self) -> Path:
         return self.root / "baselines"
-
-    @property
-    def llm(self) -> Path:
-        return self.llm_dir or self.root / "llm"
-
-    @property
-    def encoder(self) -> Path:
-        return self.root / "encoder"
-
-    @property
-    def video_cache(self) -> Path:
-        return self.root / "video_cache"
-
-    def train(self, seed: int) -> Path:
-        return self.root / "train" / f"seed{seed}"
 
     @property
     def evaluation(self) -> Path:

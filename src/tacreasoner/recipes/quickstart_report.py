@@ -21,10 +21,9 @@ def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tupl
                    batch_size: int = 48, max_new_tokens: int = 256, video_cache: Path | None = None,
                    progress: Callable[[str], Callable[[int, int], None]] | None = None) -> dict[str, Any]:
     """Answer each split with each seed's model; one report per split (mean ± std over seeds)."""
-    from tacreasoner.evaluate.predict import answerer_id, load_trained, predict_items, set_aside_stale
+    from tacreasoner.evaluate.predict import answer_with_model, answerer_id, set_aside_stale
     from tacreasoner.evaluate.report import evaluate
     from tacreasoner.tasks.bench import load_bench
-    from tacreasoner.train.data import bench_video_root
 
     reports: dict[str, Any] = {}
     for split in splits:
@@ -32,20 +31,13 @@ def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tupl
         files = []
         for seed, model_dir in sorted(models.items()):
             path = out / split / "predictions" / f"seed{seed}.jsonl"
-            who = answerer_id(model_dir, bench)
-            set_aside_stale(path, who)
-            if not _complete(path, len(items)):
-                model, processor = load_trained(model_dir)
-                predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
-                              max_new_tokens=max_new_tokens, video_cache=video_cache, answered_by=who,
+            set_aside_stale(path, answerer_id(model_dir, bench))  # the quickstart owns its folder: no refusal
+            answer_with_model(model_dir, bench, info, items, path, batch_size=batch_size,
+                              max_new_tokens=max_new_tokens, video_cache=video_cache,
                               progress=None if progress is None else progress(f"{split}, seed {seed}"))
             files.append(path)
         reports[split] = evaluate(items, files, "strict", out / split)
     return reports
-
-
-def _complete(path: Path, n: int) -> bool:
-    return path.is_file() and sum(1 for line in path.open(encoding="utf-8") if line.strip()) >= n
 
 
 def publish_model(model_dir: Path, target: Path) -> Path:
