@@ -68,11 +68,18 @@ def test_fit_refuses_what_it_cannot_use() -> None:
 
 
 def test_the_projector_reads_each_video_before_the_cross_video_layer() -> None:
-    projector = TactileProjector(8, 16, cross_video=3, question_dim=8, tokens_per_video=2, reader_traits=READER_TRAITS,
-                                 reader_levels=MAX_LEVELS)
+    from tacreasoner.model.heads import CrossVideoFusion, HeadModules
+
+    projector = TactileProjector(8, 16, heads=HeadModules(CrossVideoFusion(8, 4, 4.0, 3, 8, 2, 1),
+                                                          ClipReader(8, 2, READER_TRAITS, MAX_LEVELS)))
     videos, labels = _clips(n=6)
-    before = projector(videos, per_sample=torch.tensor([1, 2, 3]), question=torch.zeros(3, 8))
+
+    def project() -> torch.Tensor:
+        features, _, _ = projector.heads.write(videos, torch.tensor([1, 2, 3]), torch.zeros(3, 8))
+        return projector(features)
+
+    before = project()
     projector.clip_reader.fit(*_clips(), penalty=1.0)
-    after = projector(videos, per_sample=torch.tensor([1, 2, 3]), question=torch.zeros(3, 8))
+    after = project()
     assert not torch.allclose(before, after)
     assert projector.clip_reader.levels(videos)[:, HARDNESS].tolist() == labels[:, HARDNESS].tolist()

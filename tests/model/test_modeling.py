@@ -385,13 +385,13 @@ def test_name_matcher_assigns_unseen_prompts_and_replaces_the_pick_there_only() 
 
 
 def test_each_matched_option_s_name_carries_the_mark_of_its_video() -> None:
-    from tacreasoner.model.tactile_encoder import TactileProjector
+    from tacreasoner.model.heads import CrossVideoFusion, ReadoutHeads
 
-    projector = TactileProjector(8, 16, cross_video=3, question_dim=6, tokens_per_video=2, attributes=2)
-    fusion = projector.cross_video
+    heads = ReadoutHeads(CrossVideoFusion(8, 4, 4.0, 3, 6, 2, 2), None, torch.nn.Parameter(torch.zeros(3, 16)))
+    fusion = heads.cross_video
     feats, options, gold, _ = _namings(120, 3, torch.Generator().manual_seed(0))
     fusion.fit_names(feats, options, gold)
-    torch.nn.init.normal_(projector.option_marks)
+    torch.nn.init.normal_(heads.option_marks)
     # prompt 0: three videos, its option names at tokens 1-2 (A), 3 (B), 4 (C); prompt 1: one video, no options
     option = torch.tensor([[-1, 0, 0, 1, 2, -1], [-1, -1, -1, -1, -1, -1]])
     listed = torch.zeros(2, 3, 6)
@@ -399,13 +399,27 @@ def test_each_matched_option_s_name_carries_the_mark_of_its_video() -> None:
     features = torch.cat([feats[0], feats[1][:1]])
     embeds = torch.zeros(2, 6, 16)
     with torch.no_grad():
-        places = fusion.places(features, torch.tensor([3, 1]), (listed, torch.tensor([3, 0])))
-        out = projector.mark_options(embeds, option, places)
+        _, _, places = heads.write(features, torch.tensor([3, 1]), torch.zeros(2, 6), (listed, torch.tensor([3, 0])))
+        out = heads.mark(embeds, option, places)
     place = gold[0].argsort()  # the video of each option (the matcher gets this training prompt right)
     expected = torch.zeros(2, 6, 16)
     for token, k in ((1, 0), (2, 0), (3, 1), (4, 2)):
-        expected[0, token] = projector.option_marks[place[k]]
+        expected[0, token] = heads.option_marks[place[k]]
     torch.testing.assert_close(out, expected)
+    assert heads.mark(embeds, option, None) is embeds  # no matcher verdict: the text is left alone
+
+
+def test_a_model_without_heads_passes_through_the_hook_unchanged() -> None:
+    from tacreasoner.model.heads import ReadoutHeads
+
+    model = tiny_model()
+    heads = model.projector.heads
+    assert isinstance(heads, ReadoutHeads) and heads.cross_video is heads.clip_reader is heads.option_marks is None
+    features = torch.randn(3, 2, 8)
+    written, loss, places = heads.write(features, torch.tensor([1, 2]), winner=torch.tensor([0, 1]))
+    assert written is features and loss is None and places is None
+    assert not any(n.startswith(("projector.cross_video", "projector.clip_reader", "projector.option_marks"))
+                   for n, _ in model.named_parameters())
 
 
 def test_option_vectors_average_each_listed_name_over_the_llm_s_own_rows() -> None:

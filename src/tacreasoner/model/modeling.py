@@ -19,6 +19,7 @@ from transformers.modeling_outputs import CausalLMOutputWithPast
 
 from tacreasoner.model.configuration import TacReasonerConfig
 from tacreasoner.model.encoder_config import TactileEncoderConfig
+from tacreasoner.model.heads.hook import build_heads
 from tacreasoner.model.processing import OPTION_MASK_OFFSET
 from tacreasoner.model.tactile_encoder import DynamicTactileEncoder, TactileProjector
 
@@ -78,10 +79,8 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         self.language_model = language_model
         self.tactile_encoder = DynamicTactileEncoder(config.encoder_config, config.text_hidden_size)
         enc = self.encoder_config
-        self.projector = TactileProjector(enc.hidden_size, config.text_hidden_size, enc.video_slots, enc.cross_video,
-                                          enc.fusion_heads, enc.mlp_ratio, config.text_hidden_size,
-                                          enc.tokens_per_video, len(enc.cross_video_attributes),
-                                          enc.clip_reader_traits if enc.clip_reader else (), enc.clip_reader_levels)
+        self.projector = TactileProjector(enc.hidden_size, config.text_hidden_size, enc.video_slots,
+                                          build_heads(enc, config.text_hidden_size))
         self.post_init()
 
     # ------------------------------------------------------------------ HF plumbing
@@ -205,7 +204,8 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         ``slots``: each video's position in its own prompt (0 for the first), for ``encoder.video_slots``;
         ``per_sample`` (videos per prompt) and ``sample_question`` (B×H), for ``encoder.cross_video``."""
         features = self.tactile_encoder(pixel_values, question, sensor_ids, appearance)
-        return self.projector(features, slots, per_sample, sample_question)
+        features, _, _ = self.projector.heads.write(features, per_sample, sample_question)
+        return self.projector(features, slots)
 
     def embed_inputs(self, input_ids: torch.Tensor, pixel_values: torch.Tensor | None = None,
                      attention_mask: torch.Tensor | None = None, question_mask: torch.Tensor | None = None,
@@ -256,17 +256,14 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         if self.projector.video_slot is not None:  # each video's place in its own prompt: 0, 1, … per sample
             first = (per_sample.cumsum(0) - per_sample).repeat_interleave(per_sample)
             slots = torch.arange(len(features), device=input_ids.device) - first
-        places = None  # the name matcher's assignment, read twice: by the tactile tokens and the option names
-        if readings and "places" in readings:
-            places = readings["places"]
-        elif options is not None and self.projector.cross_video is not None:
-            places = self.projector.cross_video.places(features, per_sample, options)
-        tactile, comparison_loss = self.projector.project(features, slots, per_sample, compared, video_winner, places,
-                                                          readings)
+        heads = self.projector.heads
+        features, comparison_loss, places = heads.write(features, per_sample, compared, options, video_winner,
+                                                        readings)
+        tactile = self.projector(features, slots)
         mask = (input_ids == self.config.tactile_token_id).unsqueeze(-1)
         embeds = text_embeds.masked_scatter(mask, tactile.to(text_embeds.dtype).reshape(-1, text_embeds.shape[-1]))
-        if places is not None and question_mask is not None:
-            embeds = self.projector.mark_options(embeds, question_mask.long() - OPTION_MASK_OFFSET, places)
+        if question_mask is not None:
+            embeds = heads.mark(embeds, question_mask.long() - OPTION_MASK_OFFSET, places)
         return embeds, comparison_loss
 
     # ------------------------------------------------------------------ forward / generate

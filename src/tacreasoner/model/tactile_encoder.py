@@ -17,7 +17,7 @@ from torch.nn import functional as F
 
 from tacreasoner.model.appearance import build_appearance
 from tacreasoner.model.encoder_config import TactileEncoderConfig
-from tacreasoner.model.heads import ClipReader, CrossVideoFusion, loud_option_marks, mark_options
+from tacreasoner.model.heads.hook import HeadModules, ReadoutHeads
 from tacreasoner.model.temporal import TemporalBranch
 
 __all__ = ["CrossAttentionFusion", "DynamicTactileEncoder", "TactileProjector", "VideoSlots"]
@@ -79,63 +79,35 @@ class VideoSlots(nn.Module):
 
 
 class TactileProjector(nn.Module):
-    """E_V = W2·GELU(W1·F_enh + b1) + b2, into the LLM's embedding size (+ :class:`VideoSlots` and the optional
-    read-out heads of :mod:`tacreasoner.model.heads`, :class:`CrossVideoFusion` and :class:`ClipReader`, when
-    asked; they train with the projector, the clip reader in Stage II only)."""
+    """E_V = W2·GELU(W1·F_enh + b1) + b2, into the LLM's embedding size (+ :class:`VideoSlots` when asked).
 
-    def __init__(self, in_dim: int, out_dim: int, video_slots: int = 0, cross_video: int = 0,
-                 heads: int = 4, mlp_ratio: float = 4.0, question_dim: int = 0, tokens_per_video: int = 1,
-                 attributes: int = 1, reader_traits: tuple[str, ...] = (), reader_levels: int = 0) -> None:
+    It also holds the optional read-out heads' parts (``heads``, from :func:`tacreasoner.model.heads.build_heads`),
+    which train with it; the model calls them through :attr:`heads`, never through the projection."""
+
+    def __init__(self, in_dim: int, out_dim: int, video_slots: int = 0, heads: HeadModules | None = None) -> None:
         super().__init__()
-        self.cross_video = CrossVideoFusion(in_dim, heads, mlp_ratio, cross_video, question_dim or in_dim,
-                                            tokens_per_video, attributes) if cross_video else None
-        self.clip_reader = ClipReader(in_dim, tokens_per_video, reader_traits, reader_levels) \
-            if reader_traits else None
+        heads = heads or HeadModules()
+        self.cross_video = heads.cross_video
+        self.clip_reader = heads.clip_reader
         self.linear_1 = nn.Linear(in_dim, out_dim)
         self.act = nn.GELU()
         self.linear_2 = nn.Linear(out_dim, out_dim)
         self.video_slot = VideoSlots(video_slots, out_dim) if video_slots else None
-        # added to the text embedding of a listed option's name: the place of the video the matcher gives it
-        self.option_marks = nn.Parameter(torch.zeros(cross_video, out_dim)) if cross_video else None
+        self.option_marks = heads.option_marks
 
-    def forward(self, features: torch.Tensor, slots: torch.Tensor | None = None, per_sample: torch.Tensor | None = None,
-                question: torch.Tensor | None = None) -> torch.Tensor:
-        """``slots``: each video's place in its own prompt (V; 0 = first), read when the projector has slots;
-        ``per_sample`` (videos per prompt, B) and ``question`` (B×Dq), read by the cross-video layer."""
-        return self.project(features, slots, per_sample, question)[0]
+    @property
+    def heads(self) -> ReadoutHeads:
+        """The hook the model calls before (``write``) and after (``mark``) the projection."""
+        return ReadoutHeads(self.cross_video, self.clip_reader, self.option_marks)
 
-    def loud_option_marks(self, text_rows: torch.Tensor, seed: int) -> None:
-        loud_option_marks(self.option_marks, text_rows, seed)
-
-    def mark_options(self, embeds: torch.Tensor, option: torch.Tensor, places: torch.Tensor) -> torch.Tensor:
-        return mark_options(embeds, self.option_marks, option, places)
-
-    def project(self, features: torch.Tensor, slots: torch.Tensor | None = None,
-                per_sample: torch.Tensor | None = None, question: torch.Tensor | None = None,
-                winner: torch.Tensor | None = None, places: torch.Tensor | None = None,
-                readings: dict[str, torch.Tensor] | None = None) -> tuple[torch.Tensor, torch.Tensor | None]:
-        """:meth:`forward` plus the cross-video comparator's loss against ``winner`` (B or B×3; None without
-        one); ``places``: the name matcher's assignment (``CrossVideoFusion.places``); ``readings``: the heads'
-        verdicts made elsewhere (training's out-of-fold readings; ``heads.base.READINGS``), written in place of
-        the heads' own."""
-        comparison_loss, read = None, features
-        readings = readings or {}
-        if per_sample is None:
-            per_sample = torch.ones(len(features), dtype=torch.long, device=features.device)
-        if self.cross_video is not None:
-            features, comparison_loss = self.cross_video(features, per_sample, question, winner, places,
-                                                         readings.get("pick"))
-        if self.clip_reader is not None:  # reads a video's own encoder output, as it was fitted on, and speaks
-            # only in one-video prompts: written into comparisons too it took SFD from 75% to 51% (docs/training.md)
-            alone = (per_sample == 1).repeat_interleave(per_sample).to(features.dtype)
-            vectors = self.clip_reader.vectors(read, readings.get("levels"))
-            features = features + vectors.unsqueeze(1) * alone[:, None, None]
+    def forward(self, features: torch.Tensor, slots: torch.Tensor | None = None) -> torch.Tensor:
+        """``slots``: each video's place in its own prompt (V; 0 = first), read when the projector has slots."""
         out = self.linear_2(self.act(self.linear_1(features)))
         if self.video_slot is None:
-            return out, comparison_loss
+            return out
         if slots is None:
             slots = torch.zeros(len(features), dtype=torch.long, device=features.device)
-        return self.video_slot(out, slots), comparison_loss
+        return self.video_slot(out, slots)
 
 
 class DynamicTactileEncoder(nn.Module):

@@ -103,7 +103,7 @@ def fit_heads(model: Any, processor: Any, examples: Sequence[Tokenized], bank: V
         for i, r in enumerate(read):
             readings[i][head.reading] = r
     if fusion is not None and stats.get("name_matcher", {}).get("named"):
-        model.projector.loud_option_marks(model.get_input_embeddings().weight, seed + 2)
+        model.projector.heads.start_marks(model.get_input_embeddings().weight, seed + 2)
     _freeze_fitted(model)
     out = [dataclasses.replace(e, readings=r) for e, r in zip(examples, readings, strict=True)]
     return out, stats
