@@ -190,3 +190,29 @@ def test_readings_given_to_the_model_replace_the_heads_own() -> None:
         a = model(**inputs, pixel_values=pv, readings=picks).logits
         b = model(**inputs, pixel_values=pv, readings=flipped).logits
         assert not torch.allclose(a[1], b[1]) and torch.allclose(a[0], b[0])
+
+
+def test_comparator_copies_fitted_together_read_as_copies_fitted_one_by_one(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Cross-fitting fits the comparator's copies in one loop (fit_comparators); each copy must end where fitting it
+    alone takes it: its own statistics, ridge heads, seeded batches and directions, nothing shared."""
+    g = torch.Generator().manual_seed(3)
+    n = 48
+    vids = [torch.randn(2 + i % 2, 2, 8, generator=g) for i in range(n)]  # pairs and triples
+    winner = [int(v[:, 0, 0].argmax()) for v in vids]
+    objects = [[f"o{int(x)}" for x in torch.randint(0, 12, (len(v),), generator=g)] for v in vids]
+    rows = HeadRows(videos=vids, questions=torch.randn(n, 6, generator=g),
+                    targets=[(w, i % 2, i % 3 > 0) for i, w in enumerate(winner)])
+    from tacreasoner.model.heads import cross_video
+
+    monkeypatch.setattr(cross_video, "FIT_STEPS", 150)  # where each copy ends, not how well it picks
+    head = ComparatorHead(CrossVideoFusion(8, 2, 2.0, 3, 6, tokens_per_video=2, attributes=2))
+    together = crossfit(head, rows, objects, 3, seed=1)
+    monkeypatch.delattr(ComparatorHead, "fit_rows_together")
+    alone = crossfit(head, rows, objects, 3, seed=1)
+    assert len(together.folds) == len(alone.folds) >= 4
+    assert [f["fit"] for f in together.folds] == [f["fit"] for f in alone.folds]
+    read = [(a, b) for a, b in zip(together.readings, alone.readings, strict=True) if a is not None]
+    assert len(read) > n // 2 and any(float(a.abs().sum()) > 0 for a, _ in read)
+    for a, b in read:
+        torch.testing.assert_close(a, b, rtol=0, atol=1e-5)
+    assert bool((head.fusion.directions == 0).all()), "cross-fitting leaves the head itself unfitted"

@@ -78,20 +78,18 @@ def tiny_config(inputs: dict[str, Path], output_dir: Path, **sections: Any) -> T
 
 COMPARATOR_FIT_STEPS = 100
 """AdamW steps of each comparator fit in tests that check where and when the comparator is fitted, not how well it
-picks (``CrossVideoFusion.fit`` takes 1500; Stage II fits one copy per set of held-out folds, 23 on the tiny setup,
-and the kept one, so the default costs minutes here; tests/model/test_modeling.py checks the quality of a fit)."""
+picks (``cross_video.FIT_STEPS``, 1500 by default; Stage II fits one copy per set of held-out folds, 23 on the tiny
+setup, and the kept one; tests/model/test_modeling.py checks the quality of a fit)."""
 
 
 def fewer_comparator_fit_steps(steps: int = COMPARATOR_FIT_STEPS) -> Callable[[], None]:
     """Make every comparator fit take ``steps`` AdamW steps unless its caller says otherwise; returns the undo."""
-    from functools import partialmethod
+    from tacreasoner.model.heads import cross_video
 
-    from tacreasoner.model.heads.cross_video import CrossVideoFusion
-
-    fit = CrossVideoFusion.fit
-    CrossVideoFusion.fit = partialmethod(fit, steps=steps)  # type: ignore[method-assign]
+    before = cross_video.FIT_STEPS
+    cross_video.FIT_STEPS = steps
 
     def undo() -> None:
-        CrossVideoFusion.fit = fit  # type: ignore[method-assign]
+        cross_video.FIT_STEPS = before
 
     return undo

@@ -10,6 +10,8 @@ encoder's features when Stage II starts (:class:`ComparatorHead`, :class:`NameMa
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import torch
@@ -19,7 +21,11 @@ from torch.nn import functional as F
 from tacreasoner.model.fitting import as_loud_as_a_token, ridge_solve
 from tacreasoner.model.heads.base import HeadRows
 
-__all__ = ["ComparatorHead", "CrossVideoFusion", "NameMatcherHead"]
+__all__ = ["FIT_STEPS", "ComparatorFit", "ComparatorHead", "CrossVideoFusion", "NameMatcherHead", "fit_comparators"]
+
+FIT_STEPS = 1500
+"""AdamW steps of a comparator fit (its directions); read when a fit starts, so tests that check where and when
+the comparator is fitted, not how well, may lower it."""
 
 
 class CrossVideoFusion(nn.Module):
@@ -188,8 +194,9 @@ class CrossVideoFusion(nn.Module):
                 right += int(list(chosen) == [int(i) for i in a])
         return {"named": len(videos), "assigned": right / len(videos)}
 
-    def fit(self, videos: list[torch.Tensor], questions: torch.Tensor, targets: torch.Tensor, steps: int = 1500,
-            lr: float = 1e-2, weight_decay: float = 0.1, batch_size: int = 16, seed: int = 0) -> dict[str, float]:
+    def fit(self, videos: list[torch.Tensor], questions: torch.Tensor, targets: torch.Tensor,
+            steps: int | None = None, lr: float = 1e-2, weight_decay: float = 0.1, batch_size: int = 16,
+            seed: int = 0) -> dict[str, float]:
         """Fit the comparator on fixed features, then freeze it: a pick learnt jointly with the LLM's loss drowns
         that loss and does not learn to pick (docs/training.md), while on the frozen encoder's features the same
         comparator, fitted alone, orders unseen objects (benchmarks/results/comparator_probe.md).
@@ -197,7 +204,15 @@ class CrossVideoFusion(nn.Module):
         ``videos``: per prompt its k×N×H encoder output (k ≥ 2); ``questions``: S×Dq question vectors;
         ``targets``: S×3 gold pick, attribute index, more (1) / less (0). The two heads that read the attribute and
         the way from the question are ridge regressions (closed form); the directions are fitted by AdamW on the
-        picks. Returns the fitted comparator's accuracy on these prompts (pick, attribute read, comparative read)."""
+        picks (``steps``, default :data:`FIT_STEPS`). Returns the fitted comparator's accuracy on these prompts (pick,
+        attribute read, comparative read). :func:`fit_comparators` fits several comparators (cross-fitting's copies)
+        in one loop, each as this would."""
+        return fit_comparators([ComparatorFit(self, videos, questions, targets, seed)], steps=steps, lr=lr,
+                               weight_decay=weight_decay, batch_size=batch_size)[0]
+
+    def _prepare_fit(self, job: ComparatorFit) -> _Prepared:
+        """Set the standardisation statistics and the ridge heads, zero the directions; what the descent reads."""
+        videos, questions, targets = job.videos, job.questions, job.targets
         if not videos:
             raise ValueError("the comparator needs at least one comparison to fit")
         if len(videos) != len(questions) or len(videos) != len(targets):
@@ -213,47 +228,40 @@ class CrossVideoFusion(nn.Module):
                 _ridge(self.attribute, questions[named], F.one_hot(targets[named, 1], self.directions.shape[0]))
             if bool(way.any()):
                 _ridge(self.comparative, questions[way], targets[way, 2:3] * 2.0 - 1.0)
-        groups: dict[int, list[int]] = {}
-        for i, v in enumerate(videos):
-            groups.setdefault(len(v), []).append(i)
-        stacked = {k: (self._normalised(torch.stack([videos[i].flatten(1) for i in rows]).to(dtype)),
-                       questions[rows].to(dtype), targets[rows]) for k, rows in groups.items()}
-        place = {i: (k, r) for k, rows in groups.items() for r, i in enumerate(rows)}
+            # the attribute and comparative heads are fixed from here, so each prompt's attribute and sign are read
+            # once; only the pick's cross-entropy moves the directions (the arithmetic of _compare)
+            asked = questions.to(dtype)
+            attribute, sign = self._chosen_direction(self.attribute(asked), self.comparative(asked).squeeze(-1))
+            width = max(len(v) for v in videos)
+            feats = torch.zeros(len(videos), width, flat.shape[1], dtype=dtype)
+            present = torch.zeros(len(videos), width, dtype=torch.bool)
+            for i, v in enumerate(videos):
+                feats[i, :len(v)] = self._normalised(v.flatten(1).to(dtype))
+                present[i, :len(v)] = True
         for p in self.comparator_parameters:
             p.requires_grad_(False)
-        self.directions.requires_grad_(True)
-        optimizer = torch.optim.AdamW([self.directions], lr=lr, weight_decay=weight_decay)
-        generator = torch.Generator().manual_seed(seed)
-        # the attribute and comparative heads are fixed here, so each prompt's attribute and sign are read once;
-        # only the pick's cross-entropy moves the directions (the same arithmetic as _compare, a step at a time)
+        return _Prepared(feats, present, attribute, sign.squeeze(-1), targets[:, 0].long(), flat,
+                         torch.Generator().manual_seed(job.seed))
+
+    def _finish_fit(self, job: ComparatorFit, prepared: _Prepared) -> dict[str, float]:
+        """Start the verdict as loud as a token (it stayed at 3% of one, unread, from zero); the fit's accuracy."""
         with torch.no_grad():
-            chosen = {k: self._chosen_direction(self.attribute(asked), self.comparative(asked).squeeze(-1))
-                      for k, (_, asked, _) in stacked.items()}
-        group_of = torch.tensor([place[i][0] for i in range(len(videos))])
-        row_of = torch.tensor([place[i][1] for i in range(len(videos))])
-        with torch.enable_grad():
-            for _ in range(steps):
-                batch = torch.randint(0, len(videos), (batch_size,), generator=generator)
-                loss = torch.zeros(())
-                for k, (feats, _, gold) in stacked.items():
-                    rows = row_of[batch[group_of[batch] == k]]
-                    if len(rows):
-                        scores = self._scores(feats[rows], chosen[k][0][rows], chosen[k][1][rows])
-                        loss = loss + F.cross_entropy(scores.float(), gold[rows, 0], reduction="sum")
-                optimizer.zero_grad()
-                (loss / batch_size).backward()
-                optimizer.step()
-        self.directions.requires_grad_(False)
-        with torch.no_grad():  # the verdict starts as loud as a token (it stayed at 3% of one, unread, from zero)
-            self.verdict.copy_(as_loud_as_a_token(flat, self.verdict.shape, generator))
+            self.verdict.copy_(as_loud_as_a_token(prepared.flat, self.verdict.shape, prepared.generator))
+        groups: dict[int, list[int]] = {}
+        for i, v in enumerate(job.videos):
+            groups.setdefault(len(v), []).append(i)
         right = {"pick": 0, "attribute": 0, "comparative": 0}
+        dtype = self.directions.dtype
         with torch.no_grad():
-            for feats, asked, gold in stacked.values():
-                scores, attribute_logits, more_logit = self._compare(feats, asked)
+            for rows in groups.values():
+                feats = self._normalised(torch.stack([job.videos[i].flatten(1) for i in rows]).to(dtype))
+                gold = job.targets[rows]
+                scores, attribute_logits, more_logit = self._compare(feats, job.questions[rows].to(dtype))
                 right["pick"] += int((scores.argmax(-1) == gold[:, 0]).sum())
                 right["attribute"] += int((attribute_logits.argmax(-1) == gold[:, 1]).sum())
                 right["comparative"] += int(((more_logit > 0).long() == gold[:, 2]).sum())
-        return {"comparisons": len(videos), **{k: v / len(videos) for k, v in right.items()}}
+        n = len(job.videos)
+        return {"comparisons": n, **{k: v / n for k, v in right.items()}}
 
     def forward(self, tokens: torch.Tensor, per_sample: torch.Tensor, question: torch.Tensor | None,
                 winner: torch.Tensor | None = None, places: torch.Tensor | None = None,
@@ -324,6 +332,77 @@ class CrossVideoFusion(nn.Module):
         return self.assignments[torch.arange(pairs.shape[1], device=pairs.device), pairs].sum(1)
 
 
+@dataclass
+class ComparatorFit:
+    """One comparator to fit (:meth:`CrossVideoFusion.fit`'s arguments): per prompt its k×N×H videos, the S×Dq
+    question vectors, the S×3 targets (pick, attribute index, more) and the seed of its batch draws."""
+
+    fusion: CrossVideoFusion
+    videos: list[torch.Tensor]
+    questions: torch.Tensor
+    targets: torch.Tensor
+    seed: int = 0
+
+
+@dataclass
+class _Prepared:
+    feats: torch.Tensor  # S×K×W standardised, zero past a prompt's videos
+    present: torch.Tensor  # S×K
+    attribute: torch.Tensor  # S: the direction each question asks for
+    sign: torch.Tensor  # S: +1 more, −1 less
+    gold: torch.Tensor  # S: the pick
+    flat: torch.Tensor
+    generator: torch.Generator
+
+
+def fit_comparators(jobs: list[ComparatorFit], steps: int | None = None, lr: float = 1e-2,
+                    weight_decay: float = 0.1, batch_size: int = 16) -> list[dict[str, float]]:
+    """Fit several comparators at once, each exactly as :meth:`CrossVideoFusion.fit` alone would (up to float
+    rounding): its own statistics, ridge heads and seeded batch draws; AdamW acts per element, so one optimizer over
+    the stacked directions moves each comparator's as its own would. Cross-fitting fits ~20 copies of one head;
+    one loop over all of them costs about what one copy's loop did (Python and autograd overhead per step, not
+    arithmetic, is the cost of these small problems). ``steps``: AdamW steps (default :data:`FIT_STEPS`). Returns
+    each comparator's fit statistics."""
+    if not jobs:
+        return []
+    steps = FIT_STEPS if steps is None else steps
+    prepared = [job.fusion._prepare_fit(job) for job in jobs]
+    shapes = {tuple(j.fusion.directions.shape) for j in jobs}
+    if len({p.feats.shape[2] for p in prepared}) != 1 or len(shapes) != 1:
+        raise ValueError(f"comparators fitted together need one feature width and one direction shape, got "
+                         f"widths {sorted({p.feats.shape[2] for p in prepared})} and directions {sorted(shapes)}")
+    k = max(p.feats.shape[1] for p in prepared)
+    feats = torch.cat([F.pad(p.feats, (0, 0, 0, k - p.feats.shape[1])) for p in prepared])
+    present = torch.cat([F.pad(p.present, (0, k - p.present.shape[1])) for p in prepared])
+    attribute = torch.cat([p.attribute for p in prepared])
+    sign = torch.cat([p.sign for p in prepared]).to(feats.dtype)
+    gold = torch.cat([p.gold for p in prepared])
+    sizes = [len(p.gold) for p in prepared]
+    offsets = torch.tensor([sum(sizes[:i]) for i in range(len(sizes))])
+    copy_of = torch.arange(len(jobs)).repeat_interleave(batch_size)
+    directions = nn.Parameter(torch.stack([j.fusion.directions.detach() for j in jobs]))  # C×A×W
+    optimizer = torch.optim.AdamW([directions], lr=lr, weight_decay=weight_decay)
+    scale = feats.shape[-1] ** 0.5
+    with torch.enable_grad():
+        for _ in range(steps):
+            rows = torch.cat([torch.randint(0, n, (batch_size,), generator=p.generator) + offset
+                              for p, n, offset in zip(prepared, sizes, offsets.tolist(), strict=True)])
+            direction = sign[rows, None] * directions[copy_of, attribute[rows]]  # (C·B)×W
+            scores = (feats[rows] @ direction.unsqueeze(-1)).squeeze(-1) / scale
+            scores = scores.masked_fill(~present[rows], float("-inf"))
+            loss = F.cross_entropy(scores.float(), gold[rows], reduction="sum") / batch_size
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+    out = []
+    for job, prep, fitted in zip(jobs, prepared, directions.detach(), strict=True):
+        with torch.no_grad():
+            job.fusion.directions.copy_(fitted)
+        job.fusion.directions.requires_grad_(False)
+        out.append(job.fusion._finish_fit(job, prep))
+    return out
+
+
 def _ridge(head: nn.Sequential, questions: torch.Tensor, targets: torch.Tensor, penalty: float = 10.0) -> None:
     """Set ``head`` (LayerNorm → Linear) to the ridge regression of ``targets`` on its normalised, per-dimension
     standardised inputs: closed form, and it names unseen questions' attribute where a gradient-fitted map of the
@@ -344,14 +423,32 @@ class ComparatorHead:
     def __init__(self, fusion: CrossVideoFusion) -> None:
         self.fusion = fusion
 
-    def fit_rows(self, rows: HeadRows, seed: int = 0) -> dict[str, Any]:
+    def _job(self, rows: HeadRows, seed: int) -> ComparatorFit:
         picked = [i for i, t in enumerate(rows.targets or []) if t is not None and t[0] >= 0
                   and len(rows.videos[i]) >= 2]
         if not picked or rows.questions is None:
             raise ValueError("the comparator needs at least one comparison to fit")
         chosen = rows.subset(picked)
-        return self.fusion.fit(chosen.videos, chosen.questions, torch.tensor([list(t) for t in chosen.targets]),
-                               seed=seed)
+        return ComparatorFit(self.fusion, chosen.videos, chosen.questions,
+                             torch.tensor([list(t) for t in chosen.targets]), seed)
+
+    def fit_rows(self, rows: HeadRows, seed: int = 0) -> dict[str, Any]:
+        return fit_comparators([self._job(rows, seed)])[0]
+
+    @staticmethod
+    def fit_rows_together(fits: Sequence[tuple[ComparatorHead, HeadRows, int]]) -> list[dict[str, Any] | ValueError]:
+        """``fit_rows`` of several heads (cross-fitting's copies: head, rows, seed) in one loop
+        (:func:`fit_comparators`); a head with nothing to fit gets its ValueError instead of statistics."""
+        jobs: list[ComparatorFit] = []
+        refused: list[ValueError | None] = []
+        for head, rows, seed in fits:
+            try:
+                jobs.append(head._job(rows, seed))
+                refused.append(None)
+            except ValueError as exc:
+                refused.append(exc)
+        fitted = iter(fit_comparators(jobs))
+        return [next(fitted) if exc is None else exc for exc in refused]
 
     def silent(self, rows: HeadRows, i: int) -> torch.Tensor:
         return torch.zeros(len(rows.videos[i]))  # equal scores: the verdict is the mean of the place vectors

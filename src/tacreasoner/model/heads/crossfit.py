@@ -56,18 +56,33 @@ def crossfit(head: ReadoutHead, rows: HeadRows, objects: Sequence[Sequence[str]]
     fold_of = object_folds(objects, folds, seed)
     touched = [frozenset(fold_of[x] for x in o) for o in objects]
     out = CrossFit(readings=[None] * len(rows))
+    plans = []  # per copy: the prompts it reads, the copy, what it is fitted on, its seed, its record
     for held_folds in sorted(set(touched), key=lambda s: (len(s), sorted(s))):
         held = [i for i, s in enumerate(touched) if s == held_folds]
         train = [i for i, s in enumerate(touched) if not s & held_folds]
         fold: dict[str, Any] = {"folds": sorted(held_folds), "held_out": len(held), "fitted_on": len(train)}
-        copy_ = copy.deepcopy(head)
-        try:
-            fold["fit"] = copy_.fit_rows(rows.subset(train), seed=seed + min(held_folds))
-        except ValueError as exc:  # nothing of this head's kind outside these folds: no verdict for its prompts
-            fold["fit"] = f"not fitted: {exc}"
-            out.folds.append(fold)
-            continue
-        for i, reading in zip(held, copy_.read_rows(rows.subset(held)), strict=True):
-            out.readings[i] = reading
+        plans.append((held, copy.deepcopy(head), rows.subset(train), seed + min(held_folds), fold))
+    for (held, copy_, _, _, fold), fit in zip(plans, _fit_copies(head, [p[1:4] for p in plans]), strict=True):
+        if isinstance(fit, ValueError):  # nothing of this head's kind outside these folds: no verdict for its prompts
+            fold["fit"] = f"not fitted: {fit}"
+        else:
+            fold["fit"] = fit
+            for i, reading in zip(held, copy_.read_rows(rows.subset(held)), strict=True):
+                out.readings[i] = reading
         out.folds.append(fold)
+    return out
+
+
+def _fit_copies(head: ReadoutHead, fits: list[tuple[Any, HeadRows, int]]) -> list[dict[str, Any] | ValueError]:
+    """Each copy's ``fit_rows`` (copy, rows, seed); in one call where the head's kind fits copies together
+    (``fit_rows_together``: the comparator's gradient fits), one by one otherwise."""
+    together = getattr(type(head), "fit_rows_together", None)
+    if together is not None:
+        return together(fits)
+    out: list[dict[str, Any] | ValueError] = []
+    for copy_, train, seed in fits:
+        try:
+            out.append(copy_.fit_rows(train, seed=seed))
+        except ValueError as exc:
+            out.append(exc)
     return out
