@@ -30,7 +30,9 @@
 # fitting the read-out heads on the CPU) and then 0.45-0.55 s/step, so one chain needs ~15 min: more than a 15-minute
 # lease holds. Run a subset per lease (VARIANTS, SEEDS). With 3 chains at once (VARIANTS="rec no_stage2" THREADS=4,
 # the second lease) Stage I took ~70 s a run, Stage II ~225 s (set-up included) and a scoring ~25 s: the set-up and
-# about two variants x 3 seeds fit one lease.
+# about two variants x 3 seeds fit one lease. Left after it (2026-11-27): VARIANTS="no_dyn no_qcond cot" THREADS=2
+# (9 chains at once; cot trains the recipe's Stage I of its seed itself when rec is not among the variants; the
+# comparator's cross-fit is faster since ba2a2b0).
 set -u
 export PYTHONUNBUFFERED=1 PYTHONPATH=/tmp/site:$PWD/src
 W=${W:-/tmp/w}
@@ -89,7 +91,8 @@ chain() {  # chain VARIANT SEED: its training, then its scores
         || return 1
         [ "$v" = rec ] && score "$v.seed$s" "$run/stage2/model" test 64 ;;
     no_stage1) train "$v" "$s" 2 && score "$v.seed$s" "$run/stage2/model" val 64 ;;
-    cot|no_stage2)
+    cot|no_stage2)  # from the recipe's Stage I of the seed: trained here when rec is not among the variants
+        if [[ " ${VARIANTS[*]} " != *" rec "* ]]; then train rec "$s" 1 || return 1; fi
         until [ -e "$W/runs/rec.seed$s/stage1/run.done" ]; do  # finished, not merely started saving
             [ -e "$W/logs/rec.seed$s.stage1.failed" ] && return 1
             sleep 5
