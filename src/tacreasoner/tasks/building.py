@@ -246,6 +246,16 @@ class BuildContext:
         ))
         return True
 
+    def clip_plan(self, clips: Sequence[TactileClip], eligible: list[TactileClip], reason: str, kind: str,
+                  n: int | None) -> tuple[Cycler[TactileClip], list[dict[str, Any]]] | None:
+        """A one-clip task's start: the clips left out (``reason``) counted, a cycler over the ``eligible`` ones and
+        ``n`` planned items (one per eligible clip when None) with ``kind`` templates; None when none is eligible."""
+        self.skip(len(clips) - len(eligible), reason)
+        if not eligible:
+            return None
+        return Cycler(eligible, self.rng), self.with_templates(plan_targets(len(eligible) if n is None else n,
+                                                                            self.rng), kind)
+
     def run(self, plan: list[dict[str, Any]], attempt: Callable[[dict[str, Any]], bool], what: str) -> list[QAItem]:
         """Fill the plan; each target gets ``MAX_TRIES`` draws to find a valid new item."""
         self.report.requested = len(plan)

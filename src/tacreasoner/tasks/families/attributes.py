@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from tacreasoner.data.clip import TactileClip
-from tacreasoner.tasks.building import BuildContext, Cycler, join_words, plan_targets, rank_of, ranks_of, register
+from tacreasoner.tasks.building import BuildContext, join_words, rank_of, ranks_of, register
 from tacreasoner.tasks.schema import TFA_TASKS, QAItem
 
 __all__ = ["tfa", "tfa_combined"]
@@ -16,11 +16,10 @@ def tfa(clips: Sequence[TactileClip], n: int | None, ctx: BuildContext) -> list[
     attribute = ctx.task.removeprefix("TFA-")
     attr = ctx.vocab[attribute]
     eligible = [c for c in clips if rank_of(c, ctx.vocabulary, attribute) is not None]
-    ctx.skip(len(clips) - len(eligible), f"no {ctx.vocabulary} label for {attribute}")
-    if not eligible:
+    start = ctx.clip_plan(clips, eligible, f"no {ctx.vocabulary} label for {attribute}", "tfa", n)
+    if start is None:
         return ctx.finish()
-    cycler = Cycler(eligible, ctx.rng)
-    plan = ctx.with_templates(plan_targets(len(eligible) if n is None else n, ctx.rng), "tfa")
+    cycler, plan = start
     quoted = [f'"{phrase}"' for phrase in attr.levels]
     choices = f"{', '.join(quoted[:-1])} or {quoted[-1]}"
 
@@ -38,11 +37,11 @@ def tfa_combined(clips: Sequence[TactileClip], n: int | None, ctx: BuildContext)
     """TFA-combined: every property of one object, ``attribute: phrase; …`` in vocabulary order."""
     attrs = list(ctx.vocab)
     eligible = [c for c in clips if ranks_of(c, ctx.vocabulary, attrs) is not None]
-    ctx.skip(len(clips) - len(eligible), f"missing some {ctx.vocabulary} labels ({', '.join(attrs)})")
-    if not eligible:
+    start = ctx.clip_plan(clips, eligible, f"missing some {ctx.vocabulary} labels ({', '.join(attrs)})",
+                          "tfa_combined", n)
+    if start is None:
         return ctx.finish()
-    cycler = Cycler(eligible, ctx.rng)
-    plan = ctx.with_templates(plan_targets(len(eligible) if n is None else n, ctx.rng), "tfa_combined")
+    cycler, plan = start
     slots = {"attributes": join_words(attrs), "format": "; ".join(f"{a}: …" for a in attrs)}
 
     def attempt(p: dict) -> bool:

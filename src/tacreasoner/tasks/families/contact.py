@@ -6,7 +6,7 @@ from collections import Counter
 from collections.abc import Sequence
 
 from tacreasoner.data.clip import TactileClip
-from tacreasoner.tasks.building import BuildContext, Cycler, pick, plan_targets, register, video_ref
+from tacreasoner.tasks.building import BuildContext, pick, register, video_ref
 from tacreasoner.tasks.schema import CONTACT_STATES, PHASE_TO_STATE, QAItem
 
 __all__ = ["MIN_SEGMENT", "contact_runs", "ocse"]
@@ -36,11 +36,10 @@ def ocse(clips: Sequence[TactileClip], n: int | None, ctx: BuildContext) -> list
     ctx.skip(len(with_phases) - len(consistent), "phase list length differs from n_frames")
     runs = {c.clip_id: contact_runs(phases[c.clip_id]) for c in consistent}
     eligible = [c for c in consistent if runs[c.clip_id]]
-    ctx.skip(len(consistent) - len(eligible), f"no contact phase lasting {MIN_SEGMENT}+ frames")
-    if not eligible:
+    start = ctx.clip_plan(consistent, eligible, f"no contact phase lasting {MIN_SEGMENT}+ frames", "ocse", n)
+    if start is None:
         return ctx.finish()
-    cycler = Cycler(eligible, ctx.rng)
-    plan = ctx.with_templates(plan_targets(len(eligible) if n is None else n, ctx.rng), "ocse")
+    cycler, plan = start
     used: Counter = Counter()
     options = list(CONTACT_STATES)
 
