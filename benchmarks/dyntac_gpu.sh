@@ -47,7 +47,8 @@ read -r -a SEEDS <<< "${SEEDS:-0 1 2}"
 STEPS=${STEPS:-}                           # dry runs: e.g. "--set stage1.steps=2 --set stage2.steps=2"
 LIMIT=${LIMIT:-}                           # dry runs: e.g. "--limit 8"
 THREADS=${THREADS:-1}                      # CPU threads per chain (heads' fits, data): 1 with 18 chains on 16 cores
-say() { echo "[$(date +%H:%M:%S)] $*"; }
+# shellcheck source=benchmarks/_gpu_lib.sh
+source "$(dirname "${BASH_SOURCE[0]}")/_gpu_lib.sh"  # say, step, wait_for_jobs_until
 
 declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
                  [no_qcond]="--set model.encoder.question_conditioning=false"
@@ -56,15 +57,6 @@ declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
 # CPU priority (the chains are CPU-bound): the recipe first, then the cheaper ablations; the last two mostly wait
 declare -A NICE=([rec]=0 [no_stage2]=0 [no_dyn]=2 [no_stage1]=2 [no_qcond]=19 [cot]=19)
 
-step() {  # step NAME DONE_FILE COMMAND...: run unless DONE_FILE exists; log its wall time
-    local name=$1 done=$2 start
-    shift 2
-    [ -e "$done" ] && return 0
-    start=$(date +%s)
-    "$@" > "$W/logs/$name.log" 2>&1 || { say "$name FAILED (see logs/$name.log)"; touch "$W/logs/$name.failed"; return 1; }
-    printf '%s\t%s\n' "$name" "$(( $(date +%s) - start ))" >> "$W/times.tsv"
-    say "$name: $(( $(date +%s) - start )) s"
-}
 train_done() {  # train_done STAGE_DIR COMMAND...: run COMMAND, then mark STAGE_DIR finished (its model is whole)
     local dir=$1
     shift
@@ -134,8 +126,7 @@ pipeline() {
     for v in "${VARIANTS[@]}"; do for s in "${SEEDS[@]}"; do
         (renice -n "${NICE[$v]}" -p "$BASHPID" > /dev/null; OMP_NUM_THREADS=$THREADS chain "$v" "$s") &
     done; done
-    while [ "$(date +%s)" -lt "$deadline" ] && [ -n "$(jobs -r)" ]; do sleep 3; done
-    if [ -n "$(jobs -r)" ]; then
+    if ! wait_for_jobs_until "$deadline"; then
         say "deadline: stopping what is unfinished"
         pkill -f "tacreasoner (train|evaluate)" 2>/dev/null
         sleep 2

@@ -20,18 +20,9 @@ read -r -a VARIANTS <<< "${VARIANTS:-rec no_dyn cot no_stage1}"
 read -r -a SEEDS <<< "${SEEDS:-0 1 2}"
 DEADLINE=${DEADLINE:-$(( $(date +%s) + 500 ))}  # epoch seconds by which everything stops
 here=$(dirname "$0")
-say() { echo "[$(date +%H:%M:%S)] $*"; }
+# shellcheck source=benchmarks/_gpu_lib.sh
+source "$here/_gpu_lib.sh"  # say, step, wait_for_jobs_until
 mkdir -p "$W/logs" "$W/eval_seed" "$W/touch"
-
-step() {  # step NAME DONE_FILE COMMAND...: run unless DONE_FILE exists; log its wall time
-    local name=$1 done=$2 start
-    shift 2
-    [ -e "$done" ] && return 0
-    start=$(date +%s)
-    "$@" > "$W/logs/$name.log" 2>&1 || { say "$name FAILED (see $W/logs/$name.log)"; return 1; }
-    printf '%s\t%s\n' "$name" "$(( $(date +%s) - start ))" >> "$W/times.tsv"
-    say "$name: $(( $(date +%s) - start )) s"
-}
 
 say "1: shared parts"
 step bench "$W/bench/bench.json" $TR build-bench --source physiclear --data "$DATA" --out "$W/bench" || exit 1
@@ -74,8 +65,7 @@ pids=()
 for v in "${VARIANTS[@]}"; do for s in "${SEEDS[@]}"; do
     W=$W chain "$v" "$s" & pids+=($!)
 done; done
-while [ "$(date +%s)" -lt "$DEADLINE" ] && [ -n "$(jobs -r)" ]; do sleep 3; done
-if [ -n "$(jobs -r)" ]; then
+if ! wait_for_jobs_until "$DEADLINE"; then
     say "3: deadline: stopping what is unfinished"
     pkill -P $$ 2>/dev/null; pkill -f "physiclear_recipe.sh" 2>/dev/null
     pkill -f "tacreasoner (train|evaluate-physiclear|build-cot)" 2>/dev/null; pkill -f touch_control.py 2>/dev/null
