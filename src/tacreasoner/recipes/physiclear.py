@@ -51,6 +51,7 @@ def recipe_config(paths: RecipePaths, seed: int, config: str | Path | None = Non
     """The training config of one seed: the shipped recipe (or ``config``) pointed at this run's parts."""
     return paths.train_config(seed, config or RECIPE_CONFIG, overrides)
 
+
 def run_recipe(data: str | Path, out: str | Path, *, seeds: Sequence[int] = (0,), llm: str | Path | None = None,
                config: str | Path | None = None, overrides: dict[str, Any] | None = None, evaluate: bool = True,
                encoder: dict[str, Any] | None = None, say: Callable[[str], None] = print,

@@ -60,6 +60,7 @@ def quickstart_config(paths: QuickstartPaths, seed: int, config: str | Path | No
     """The training config of one seed (the shipped one, or ``config``) pointed at this run folder's parts."""
     return paths.train_config(seed, config or QuickstartSettings.load().train_config, overrides)
 
+
 @dataclass(frozen=True)
 class Stage:
     """One named step; ``run`` returns the lines that say what it produced."""

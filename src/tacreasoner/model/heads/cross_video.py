@@ -114,8 +114,7 @@ class CrossVideoFusion(nn.Module):
 
     def _scores(self, videos: torch.Tensor, attribute: torch.Tensor, sign: torch.Tensor) -> torch.Tensor:
         """videos S×k×W (standardised) along each prompt's signed direction: S×k scores."""
-        direction = sign * self.directions.to(videos.dtype)[attribute]
-        return (videos @ direction.unsqueeze(-1)).squeeze(-1) / videos.shape[-1] ** 0.5
+        return _along(videos, sign * self.directions.to(videos.dtype)[attribute])
 
     @staticmethod
     def _comparison_loss(scores: torch.Tensor, attribute_logits: torch.Tensor, more_logit: torch.Tensor,
@@ -247,19 +246,14 @@ class CrossVideoFusion(nn.Module):
         """Start the verdict as loud as a token (it stayed at 3% of one, unread, from zero); the fit's accuracy."""
         with torch.no_grad():
             self.verdict.copy_(as_loud_as_a_token(prepared.flat, self.verdict.shape, prepared.generator))
-        groups: dict[int, list[int]] = {}
-        for i, v in enumerate(job.videos):
-            groups.setdefault(len(v), []).append(i)
-        right = {"pick": 0, "attribute": 0, "comparative": 0}
-        dtype = self.directions.dtype
-        with torch.no_grad():
-            for rows in groups.values():
-                feats = self._normalised(torch.stack([job.videos[i].flatten(1) for i in rows]).to(dtype))
-                gold = job.targets[rows]
-                scores, attribute_logits, more_logit = self._compare(feats, job.questions[rows].to(dtype))
-                right["pick"] += int((scores.argmax(-1) == gold[:, 0]).sum())
-                right["attribute"] += int((attribute_logits.argmax(-1) == gold[:, 1]).sum())
-                right["comparative"] += int(((more_logit > 0).long() == gold[:, 2]).sum())
+        gold = job.targets
+        with torch.no_grad():  # the prepared features: standardised, padded past a prompt's videos
+            scores, attribute_logits, more_logit = self._compare(prepared.feats,
+                                                                 job.questions.to(self.directions.dtype))
+            scores = scores.masked_fill(~prepared.present, float("-inf"))
+            right = {"pick": int((scores.argmax(-1) == gold[:, 0]).sum()),
+                     "attribute": int((attribute_logits.argmax(-1) == gold[:, 1]).sum()),
+                     "comparative": int(((more_logit > 0).long() == gold[:, 2]).sum())}
         n = len(job.videos)
         return {"comparisons": n, **{k: v / n for k, v in right.items()}}
 
@@ -367,10 +361,10 @@ def fit_comparators(jobs: list[ComparatorFit], steps: int | None = None, lr: flo
         return []
     steps = FIT_STEPS if steps is None else steps
     prepared = [job.fusion._prepare_fit(job) for job in jobs]
-    shapes = {tuple(j.fusion.directions.shape) for j in jobs}
-    if len({p.feats.shape[2] for p in prepared}) != 1 or len(shapes) != 1:
+    widths, shapes = {p.feats.shape[2] for p in prepared}, {tuple(j.fusion.directions.shape) for j in jobs}
+    if len(widths) != 1 or len(shapes) != 1:
         raise ValueError(f"comparators fitted together need one feature width and one direction shape, got "
-                         f"widths {sorted({p.feats.shape[2] for p in prepared})} and directions {sorted(shapes)}")
+                         f"widths {sorted(widths)} and directions {sorted(shapes)}")
     k = max(p.feats.shape[1] for p in prepared)
     feats = torch.cat([F.pad(p.feats, (0, 0, 0, k - p.feats.shape[1])) for p in prepared])
     present = torch.cat([F.pad(p.present, (0, k - p.present.shape[1])) for p in prepared])
@@ -378,17 +372,16 @@ def fit_comparators(jobs: list[ComparatorFit], steps: int | None = None, lr: flo
     sign = torch.cat([p.sign for p in prepared]).to(feats.dtype)
     gold = torch.cat([p.gold for p in prepared])
     sizes = [len(p.gold) for p in prepared]
-    offsets = torch.tensor([sum(sizes[:i]) for i in range(len(sizes))])
+    offsets = list(itertools.accumulate(sizes[:-1], initial=0))
     copy_of = torch.arange(len(jobs)).repeat_interleave(batch_size)
     directions = nn.Parameter(torch.stack([j.fusion.directions.detach() for j in jobs]))  # C×A×W
     optimizer = torch.optim.AdamW([directions], lr=lr, weight_decay=weight_decay)
-    scale = feats.shape[-1] ** 0.5
     with torch.enable_grad():
         for _ in range(steps):
             rows = torch.cat([torch.randint(0, n, (batch_size,), generator=p.generator) + offset
-                              for p, n, offset in zip(prepared, sizes, offsets.tolist(), strict=True)])
-            direction = sign[rows, None] * directions[copy_of, attribute[rows]]  # (C·B)×W
-            scores = (feats[rows] @ direction.unsqueeze(-1)).squeeze(-1) / scale
+                              for p, n, offset in zip(prepared, sizes, offsets, strict=True)])
+            # each row's copy's direction of the attribute asked, signed: what _scores reads from self.directions
+            scores = _along(feats[rows], sign[rows, None] * directions[copy_of, attribute[rows]])
             scores = scores.masked_fill(~present[rows], float("-inf"))
             loss = F.cross_entropy(scores.float(), gold[rows], reduction="sum") / batch_size
             optimizer.zero_grad()
@@ -401,6 +394,11 @@ def fit_comparators(jobs: list[ComparatorFit], steps: int | None = None, lr: flo
         job.fusion.directions.requires_grad_(False)
         out.append(job.fusion._finish_fit(job, prep))
     return out
+
+
+def _along(videos: torch.Tensor, direction: torch.Tensor) -> torch.Tensor:
+    """videos S×k×W along one direction per prompt (S×W): S×k scores, scaled by √W."""
+    return (videos @ direction.unsqueeze(-1)).squeeze(-1) / videos.shape[-1] ** 0.5
 
 
 def _ridge(head: nn.Sequential, questions: torch.Tensor, targets: torch.Tensor, penalty: float = 10.0) -> None:

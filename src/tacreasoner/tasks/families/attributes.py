@@ -10,6 +10,7 @@ from tacreasoner.tasks.schema import TFA_TASKS, QAItem
 
 __all__ = ["tfa", "tfa_combined"]
 
+
 @register(*(t for t in TFA_TASKS if t != "TFA-combined"))
 def tfa(clips: Sequence[TactileClip], n: int | None, ctx: BuildContext) -> list[QAItem]:
     """TFA-<attribute>: the level phrase of one property of one object (the attribute is in the task's name)."""

@@ -14,6 +14,7 @@ __all__ = ["MIN_SEGMENT", "contact_runs", "ocse"]
 MIN_SEGMENT = 4
 """Shortest contact-phase run (and segment) in frames."""
 
+
 def contact_runs(phases: Sequence[str], min_length: int = MIN_SEGMENT) -> list[tuple[str, int, int]]:
     """Maximal runs ``(state, start, end)`` of one contact phase lasting at least ``min_length`` frames."""
     runs, start = [], 0

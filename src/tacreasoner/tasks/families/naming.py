@@ -12,6 +12,7 @@ from tacreasoner.tasks.schema import QAItem
 
 __all__ = ["osc"]
 
+
 @register("OSC")
 def osc(clips: Sequence[TactileClip], n: int | None, ctx: BuildContext) -> list[QAItem]:
     """OSC: match three videos to three object names shown as (A) (B) (C)."""

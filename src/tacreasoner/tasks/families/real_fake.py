@@ -10,6 +10,7 @@ from tacreasoner.tasks.schema import QAItem
 
 __all__ = ["rfor"]
 
+
 def _rfor_targets(n: int | None, real: list, fake: list, ctx: BuildContext) -> list[bool]:
     """Real/fake targets: balanced when both exist; with ``n=None`` each clip once, balanced as far as possible."""
     present = [v for v, pool in ((True, real), (False, fake)) if pool]

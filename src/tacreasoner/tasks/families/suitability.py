@@ -23,6 +23,7 @@ __all__ = ["TSA_OPTIONS", "tsa"]
 
 TSA_OPTIONS = (ordinal_answer(0), ordinal_answer(1))
 
+
 @register("TSA")
 def tsa(clips: Sequence[TactileClip], n: int | None, ctx: BuildContext) -> list[QAItem]:
     """TSA: which of two objects suits a scenario better (zero-shot: refuses a train split)."""
