@@ -7,6 +7,9 @@ and per seed an exact McNemar test on the same val items (the ablation and the r
 
     python benchmarks/dyntac_ablations.py --run /tmp/dyntac_gpu --name dyntac_ablations_val \\
         --machine "one lent H100" --notes "..."
+
+``--variant NAME=LABEL`` (repeatable) compares other scored variants against the recipe instead, e.g. shorter
+training budgets (benchmarks/results/quickstart_budget_val.md).
 """
 
 from __future__ import annotations
@@ -61,10 +64,10 @@ def recipe_table(runs: dict[int, list[dict]]) -> tuple[str, dict]:
     return md + f"\nAverage per seed: {per_seed}.\n", rep.to_dict()
 
 
-def ablation_rows(run: Path, recipe: dict[int, list[dict]]) -> tuple[list[list], dict]:
+def ablation_rows(run: Path, recipe: dict[int, list[dict]], variants: dict[str, str]) -> tuple[list[list], dict]:
     rows, payload = [], {}
     base = summarize({f"seed{s}": recs for s, recs in recipe.items()})
-    for variant, label in ABLATIONS.items():
+    for variant, label in variants.items():
         runs = {s: recs for s, recs in seeds_of(run, variant, "val").items() if s in recipe}
         if not runs:
             rows.append([label, "not run", "", "", ""])
@@ -100,12 +103,20 @@ def main() -> None:
     ap.add_argument("--name", default="dyntac_ablations_val", help="result file stem under benchmarks/results")
     ap.add_argument("--machine", default="", help="where the models were trained and answered")
     ap.add_argument("--notes", default="", help="what was run, how, and what to read into it")
+    ap.add_argument("--notes-file", type=Path, help="the notes from a file (long notes: the command line stays short)")
+    ap.add_argument("--variant", action="append", default=[], metavar="NAME=LABEL",
+                    help="compare these scored variants (eval/NAME.seedS/val) instead of the paper's ablations")
+    ap.add_argument("--title", default="The paper's ablations on DynTAC-Sim val, paired by seed, on the recommended "
+                                        "recipe", help="the result file's heading")
     args = ap.parse_args()
+    variants = dict(v.split("=", 1) for v in args.variant) if args.variant else ABLATIONS
+    if args.notes_file is not None:
+        args.notes = args.notes_file.read_text(encoding="utf-8").strip()
     recipe = seeds_of(args.run, RECIPE, "val")
     if not recipe:
         raise SystemExit(f"{args.run}/eval: no scored val folder of the recipe ({RECIPE}.seedS/val/scored)")
     info = stamp()
-    md = header_md("The paper's ablations on DynTAC-Sim val, paired by seed, on the recommended recipe", info)
+    md = header_md(args.title, info)
     md += (f"- Trained and answered on: {args.machine}\n\n" if args.machine else "") + (
         args.notes + "\n\n" if args.notes else "")
     md += ("DynTAC-Sim-Bench is simulated: the project's stand-in for the paper's DynTAC-Bench. Strict extraction "
@@ -119,8 +130,9 @@ def main() -> None:
     if test:
         table, payload["recipe_test"] = recipe_table(test)
         md += f"\n## The recipe on test (scored once, {len(test)} seeds)\n\n" + table
-    rows, payload["ablations"] = ablation_rows(args.run, recipe)
-    md += ("\n## Ablations on val (the paper's Tables 3/4)\n\nAverage: mean ± std over seeds (seeds). Δ: the "
+    rows, payload["ablations"] = ablation_rows(args.run, recipe, variants)
+    md += ("\n## " + ("Ablations on val (the paper's Tables 3/4)" if variants is ABLATIONS else "Variants on val")
+           + "\n\nAverage: mean ± std over seeds (seeds). Δ: the "
            "ablation's Average minus the recipe's, per seed. p: exact McNemar over all val items per seed (↓ items "
            "only the recipe answers right, ↑ only the ablation). Verdict: seeds whose difference is significant "
            "(p < 0.05), by direction.\n\n")

@@ -183,6 +183,27 @@ def test_blank_gives_every_item_the_same_zero_clips_and_keeps_sensor_ids(loaded,
         assert "touch_seed" not in seen["line"]
 
 
+@pytest.mark.parametrize("touch", ["real", "shuffled"])
+def test_cached_appearance_tokens_are_those_of_the_clips_shown(loaded, chosen, cache, tmp_path, touch) -> None:
+    """Each clip's frozen appearance tokens are computed once and passed with its pixels: they must be what the
+    model would compute from the pixels it is shown (for shuffled touch: the other item's clip, not its own)."""
+    model, processor = loaded
+    root, items = chosen
+    real, calls = model.generate, []
+
+    def spy(**kwargs: Any) -> torch.Tensor:
+        shown = model.tactile_encoder.appearance_tokens(kwargs["pixel_values"])
+        torch.testing.assert_close(kwargs["appearance_tokens"], shown, atol=1e-5, rtol=1e-4)
+        calls.append(len(shown))
+        return real(**kwargs)
+
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(model, "generate", spy)
+        predict_items(model, processor, items, root, tmp_path / "p.jsonl", max_new_tokens=1, video_cache=cache,
+                      touch=touch)
+    assert sum(calls) == sum(len(i.videos) for i in items)
+
+
 def _per_video(runs: dict[str, dict[str, Any]]) -> Counter:
     return Counter(round(float(v.double().sum()), 3) for r in runs.values() for v in r["pixel_values"])
 

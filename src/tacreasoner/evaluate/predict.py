@@ -254,6 +254,9 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
     bank.build([k for item in todo for k in keys[item.id]], cache_dir=video_cache)
     blank = blank_video(processor.video_config) if touch == "blank" else None
     base = getattr(model, "get_base_model", lambda: model)()
+    encoder = getattr(base, "tactile_encoder", None)
+    if blank is None and encoder is not None:  # the frozen appearance branch once per clip, not per question
+        bank.cache_appearance(encoder, cache_dir=video_cache)
     device = next(base.parameters()).device
     if progress is not None:
         progress(len(items) - len(todo), len(items))
@@ -269,10 +272,10 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
                 rows.append({"input_ids": enc.input_ids, "question_mask": enc.question_mask,
                              "pixel_values": torch.zeros(0), "sensor_ids": torch.zeros(0, dtype=torch.long)})
             batch = dict(processor.collate(rows, padding_side="left"))
+            # shuffled touch: the keys were swapped above, so each clip's cached tokens follow its pixels
             videos = bank.batch([k for item in chunk for k in keys[item.id]])
-            # cached ViT tokens are never passed: they would carry the real clips past a blank or shuffled input
-            videos.pop("appearance_tokens", None)
-            if blank is not None:
+            if blank is not None:  # no tokens of the real clips may ride along with the blank ones
+                videos.pop("appearance_tokens", None)
                 videos["pixel_values"] = blank.unsqueeze(0).repeat(len(videos["sensor_ids"]), 1, 1, 1, 1)
             batch.update(videos)
             batch = {k: v.to(device) for k, v in batch.items()}

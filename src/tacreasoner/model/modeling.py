@@ -327,12 +327,14 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
     def generate(self, input_ids: torch.Tensor, attention_mask: torch.Tensor | None = None,
                  pixel_values: torch.Tensor | None = None, sensor_ids: torch.Tensor | None = None,
                  question_mask: torch.Tensor | None = None, labels: torch.Tensor | None = None,
-                 **generate_kwargs: Any) -> torch.Tensor:
+                 appearance_tokens: torch.Tensor | None = None, **generate_kwargs: Any) -> torch.Tensor:
         """The LM's own ``generate`` (KV cache, greedy/sampling, streamers) on the tactile-filled prompt.
 
+        ``appearance_tokens``: the clips' frozen appearance tokens computed earlier (as in :meth:`forward`).
         Returns only the new token ids (B×new); :meth:`answer` decodes and splits them.
         """
-        embeds = self.embed_inputs(input_ids, pixel_values, attention_mask, question_mask, sensor_ids)
+        embeds = self.embed_inputs(input_ids, pixel_values, attention_mask, question_mask, sensor_ids,
+                                   appearance_tokens)
         return self.language_model.generate(inputs_embeds=embeds, attention_mask=attention_mask, **generate_kwargs)
 
     def answer(self, processor: Any, question: str, videos: list[Any], *, system: str | None = None,

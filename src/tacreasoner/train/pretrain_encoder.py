@@ -42,12 +42,12 @@ from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.masked_video import MaskedVideoConfig, MaskedVideoModel, tube_mask
 from tacreasoner.model.video_processing import VideoProcessingConfig, preprocess_video
 from tacreasoner.progress import ProgressBar
+from tacreasoner.train.loop import StepLoop, StepStats
 from tacreasoner.train.state import (
     cosine_with_warmup,
     latest_checkpoint,
     load_checkpoint,
     save_checkpoint,
-    truncate_log,
 )
 from tacreasoner.train.threads import free_threads
 
@@ -412,29 +412,20 @@ def _train(model: MaskedVideoModel, optimizer: torch.optim.Optimizer, scheduler:
     grid, ratio = model.encoder.config.grid, model.config.mask_ratio
     bar.stage("pre-training encoder", steps, start, unit="steps")
     model.train()
-    window: list[float] = []
-    t_start = time.perf_counter()
-    truncate_log(out / LOG_NAME, start)
-    with (out / LOG_NAME).open("a", encoding="utf-8") as log_file:
-        for step in range(start, steps):
-            x, keep, mask = _batch(data, seed, step, batch_size, grid, ratio)
-            loss = model(x, keep, mask).loss
-            optimizer.zero_grad(set_to_none=True)
-            loss.backward()
-            torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
-            optimizer.step()
-            scheduler.step()
-            window.append(loss.item())
-            done = step + 1
-            if done % log_every == 0 or done == steps:
-                record = {"step": done, "loss": round(float(np.mean(window)), 5),
-                          "lr": float(optimizer.param_groups[0]["lr"]),
-                          "elapsed_s": round(time.perf_counter() - t_start, 2), "preprocess_s": round(t_pre, 2)}
-                log_file.write(json.dumps(record) + "\n")
-                log_file.flush()
-                bar.update(done, f"loss {record['loss']:.4f}")
-                window = []
-            if done % checkpoint_every == 0 or done == steps:
-                save_checkpoint(out / CHECKPOINTS, done, model.state_dict(), optimizer, scheduler,
-                                extra={"run": run})
+
+    def step(index: int) -> StepStats:
+        x, keep, mask = _batch(data, seed, index, batch_size, grid, ratio)
+        loss = model(x, keep, mask).loss
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+        optimizer.step()
+        scheduler.step()
+        return StepStats(loss.item())
+
+    loop = StepLoop(steps, start, log_every, checkpoint_every, log=out / LOG_NAME, bar=bar,
+                    describe=lambda: {"lr": float(optimizer.param_groups[0]["lr"])},
+                    extra={"preprocess_s": round(t_pre, 2)})
+    loop.run(step, checkpoint=lambda done, _loss, _elapsed: save_checkpoint(
+        out / CHECKPOINTS, done, model.state_dict(), optimizer, scheduler, extra={"run": run}))
     model.eval()

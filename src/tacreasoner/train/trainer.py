@@ -44,6 +44,7 @@ from tacreasoner.train.engine_state import (
 )
 from tacreasoner.train.head_settings import with_head_settings
 from tacreasoner.train.heads import fit_heads_once, model_heads
+from tacreasoner.train.loop import StepLoop, StepStats
 from tacreasoner.train.precision import resolve_mixed_precision
 from tacreasoner.train.state import (
     cosine_with_warmup,
@@ -54,7 +55,6 @@ from tacreasoner.train.state import (
     save_checkpoint,
     seed_everything,
     staging_dir,
-    truncate_log,
     write_json,
 )
 from tacreasoner.train.threads import training_threads
@@ -336,23 +336,18 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: ProgressBar, la
         if config.runtime.log_with != "none":
             accelerator.init_trackers(f"stage{stage}", config={k: v for k, v in _flat(config.to_dict()).items()
                                                               if isinstance(v, int | float | str | bool)})
-        truncate_log(out / LOG_FILE, start)
 
     bar.stage(f"stage {stage} training", settings.steps, start, unit="steps")
-    rank, last_loss = accelerator.process_index, None
-    tokens_window, window_start, train_start = 0, time.perf_counter(), time.perf_counter()
-    losses: list[float] = []
-    for step in range(start, settings.steps):
-        if stop_after is not None and step >= stop_after:
-            accelerator.wait_for_everyone()
-            return StageResult(stage, out, step, last_loss, 0.0, len(tokenized), start)
-        indices = batch_plan(lengths, global_batch, step, config.seed, config.data.group_by_length,
+    rank = accelerator.process_index
+
+    def step(index: int) -> StepStats:
+        indices = batch_plan(lengths, global_batch, index, config.seed, config.data.group_by_length,
                              config.data.length_group_batches)
         mine = indices[rank * micro_batch * settings.grad_accum:(rank + 1) * micro_batch * settings.grad_accum]
         micro = [mine[i:i + micro_batch] for i in range(0, len(mine), micro_batch)]
         # dropout and any other draw: a pure function of (seed, process, step), so ranks differ and a resumed run
         # draws what the uninterrupted one would
-        torch.manual_seed(step_seed(config.seed, rank, step))
+        torch.manual_seed(step_seed(config.seed, rank, index))
         global_tokens = sum(tokenized[i].n_labels for i in indices)
         step_loss = torch.zeros((), device=accelerator.device)
         for m, chunk in enumerate(micro):
@@ -363,48 +358,35 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: ProgressBar, la
                 # the LM's loss is sum / num_items_in_batch; DDP then averages over processes, hence × world
                 loss = trained(**batch, num_items_in_batch=global_tokens / world, loss_only=True).loss
                 if loss_hook is not None:
-                    loss = loss_hook(step, m, loss)
-                bad = _non_finite_processes(accelerator, loss)
-                if bad:  # every process raises together: none is left waiting in the gradients' all-reduce
-                    ids = [tokenized[i].key for i in chunk]
-                    mine_bad = rank in bad
-                    raise NonFiniteLossError(
-                        f"stage {stage}: the loss is not finite at step {step + 1} (micro-batch {m + 1} of "
-                        f"{len(micro)}) on process(es) {bad}"
-                        + (f"; here {loss.item()} on examples {ids[:8]}" if mine_bad else "; this process stops too")
-                        + f". Lower stage{stage}.lr, check the data of these examples, or use "
-                        f"runtime.mixed_precision: no")
+                    loss = loss_hook(index, m, loss)
+                _refuse_non_finite(accelerator, loss, stage, index, m, len(micro), [tokenized[i].key for i in chunk])
                 accelerator.backward(loss)
             step_loss += loss.detach()
         accelerator.clip_grad_norm_(trained.parameters(), settings.max_grad_norm)
         optimizer.step()
         scheduler.step()
         optimizer.zero_grad(set_to_none=True)
-        done = step + 1
         # mean token loss of the global batch: per-process partial sums added up
-        last_loss = float(accelerator.reduce(step_loss, reduction="sum")) / world
-        losses.append(last_loss)
-        tokens_window += sum(len(tokenized[i].input_ids) for i in indices)
-        if done % config.runtime.log_every == 0 or done == settings.steps:
-            elapsed = time.perf_counter() - window_start
-            record = {"step": done, "loss": round(sum(losses) / len(losses), 5), "lr": scheduler.get_last_lr()[0],
-                      "projector_lr": scheduler.get_last_lr()[-1],
-                      "tokens_per_s": round(tokens_window / max(elapsed, 1e-9), 1),
-                      "examples_per_s": round(len(indices) * len(losses) / max(elapsed, 1e-9), 2),
-                      "elapsed_s": round(elapsed_before + time.perf_counter() - train_start, 2)}
-            if accelerator.is_main_process:
-                with (out / LOG_FILE).open("a", encoding="utf-8") as f:
-                    f.write(json.dumps(record) + "\n")
-                if config.runtime.log_with != "none":
-                    accelerator.log({f"train/{k}": v for k, v in record.items() if k != "step"}, step=done)
-                if on_log is not None:
-                    on_log(record)
-            bar.update(done, f"loss {record['loss']:.4f}  {record['tokens_per_s']:,.0f} tokens/s")
-            losses, tokens_window, window_start = [], 0, time.perf_counter()
-        if done % config.runtime.checkpoint_every == 0 or done == settings.steps:
-            _checkpoint(accelerator, config, stage, trained, optimizer, scheduler, done, last_loss,
-                        elapsed_before + time.perf_counter() - train_start)
-    train_seconds = elapsed_before + time.perf_counter() - train_start
+        return StepStats(float(accelerator.reduce(step_loss, reduction="sum")) / world,
+                         tokens=sum(len(tokenized[i].input_ids) for i in indices), examples=len(indices))
+
+    def record(entry: dict[str, Any]) -> None:
+        if config.runtime.log_with != "none":
+            accelerator.log({f"train/{k}": v for k, v in entry.items() if k != "step"}, step=entry["step"])
+        if on_log is not None:
+            on_log(entry)
+
+    main = accelerator.is_main_process
+    loop = StepLoop(settings.steps, start, config.runtime.log_every, config.runtime.checkpoint_every,
+                    log=out / LOG_FILE if main else None, bar=bar, elapsed_before=elapsed_before,
+                    describe=lambda: {"lr": scheduler.get_last_lr()[0], "projector_lr": scheduler.get_last_lr()[-1]})
+    result = loop.run(step, on_record=record if main else None, stop_after=stop_after,
+                      checkpoint=lambda done, loss, elapsed: _checkpoint(accelerator, config, stage, trained,
+                                                                          optimizer, scheduler, done, loss, elapsed))
+    if result.stopped:
+        accelerator.wait_for_everyone()
+        return StageResult(stage, out, result.done, result.last_loss, 0.0, len(tokenized), start)
+    last_loss, train_seconds = result.last_loss, result.seconds
     accelerator.wait_for_everyone()
     materialize_sharded(accelerator.unwrap_model(trained))  # FSDP: every process gathers; the main one saves
     model_dir = out / MODEL_DIR
@@ -559,6 +541,20 @@ def _non_finite_processes(accelerator: Any, loss: torch.Tensor) -> list[int]:
         return [] if finite else [0]
     flags = accelerator.gather(torch.tensor([0.0 if finite else 1.0], device=accelerator.device))
     return [i for i, flag in enumerate(flags.tolist()) if flag]
+
+
+def _refuse_non_finite(accelerator: Any, loss: torch.Tensor, stage: int, step: int, micro: int, micros: int,
+                       keys: list[str]) -> None:
+    """Every process raises together when any loss is not finite: none is left waiting in the all-reduce."""
+    bad = _non_finite_processes(accelerator, loss)
+    if not bad:
+        return
+    mine_bad = accelerator.process_index in bad
+    raise NonFiniteLossError(
+        f"stage {stage}: the loss is not finite at step {step + 1} (micro-batch {micro + 1} of {micros}) on "
+        f"process(es) {bad}"
+        + (f"; here {loss.item()} on examples {keys[:8]}" if mine_bad else "; this process stops too")
+        + f". Lower stage{stage}.lr, check the data of these examples, or use runtime.mixed_precision: no")
 
 
 def _flat(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
