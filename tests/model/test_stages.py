@@ -111,7 +111,9 @@ def test_stage_one_row_tables_change_no_output_hold_no_vocabulary_state_and_merg
     trained = configure_stage(model, 1)
     assert isinstance(trained.get_input_embeddings(), TokenRows)
     with torch.no_grad():
-        assert torch.equal(trained(**inputs, pixel_values=pixels).logits, before)
+        # the same numbers up to float rounding: on some CPUs (an AVX512_BF16 AMD EPYC) the wrapped embedding's
+        # different memory layout leads to other kernels, 1e-7 apart on logits of size ~1
+        torch.testing.assert_close(trained(**inputs, pixel_values=pixels).logits, before, atol=1e-6, rtol=0)
     vocab = model.config.text_config.vocab_size
     params = [p for p in trained.parameters() if p.requires_grad]
     assert not any(p.shape[0] == vocab for p in params)  # nothing vocabulary-sized trains
