@@ -111,9 +111,12 @@ def test_stage_one_row_tables_change_no_output_hold_no_vocabulary_state_and_merg
     trained = configure_stage(model, 1)
     assert isinstance(trained.get_input_embeddings(), TokenRows)
     with torch.no_grad():
-        # the same numbers up to float rounding: on some CPUs (an AVX512_BF16 AMD EPYC) the wrapped embedding's
-        # different memory layout leads to other kernels, 1e-7 apart on logits of size ~1
-        torch.testing.assert_close(trained(**inputs, pixel_values=pixels).logits, before, atol=1e-6, rtol=0)
+        wrapped = trained(**inputs, pixel_values=pixels).logits
+    kept = [i for i in range(wrapped.shape[-1]) if i not in NEW_IDS]
+    assert torch.equal(wrapped[..., kept], before[..., kept])
+    # the new ids' logits come from a separate small matmul over their rows, whose summation order the BLAS may
+    # choose differently from the full head's (1.2e-7 apart on an AVX512_BF16 AMD EPYC): equal up to rounding
+    torch.testing.assert_close(wrapped[..., NEW_IDS], before[..., NEW_IDS], atol=1e-6, rtol=0)
     vocab = model.config.text_config.vocab_size
     params = [p for p in trained.parameters() if p.requires_grad]
     assert not any(p.shape[0] == vocab for p in params)  # nothing vocabulary-sized trains
