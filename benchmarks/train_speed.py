@@ -7,17 +7,18 @@ Usage (after `tacreasoner quickstart`, whose data, LLM, encoder and Stage I mode
 Absolute times on shared 2-core machines drift by ±25% between runs, so separate runs cannot rank changes of
 10%. Instead one Stage I and one Stage II run of the quickstart's settings switch variant at *every step*
 (round robin) and each variant's steps are averaged: every variant sees the same mix of batches and the same
-machine load. Variants:
+machine load. Variants (attention as the quickstart config sets it, sdpa, unless named):
 
-- ``before``: sdpa attention, the LM head over every position, ``nn.Dropout`` in LoRA (the settings up to
+- ``before``: the LM head over every position, ``nn.Dropout`` in LoRA, padded batches (the settings up to
   2026-11-24);
-- ``after``: eager attention, the LM head on labelled positions only (``loss_only``), ``CpuDropout`` (the tiny
-  default's settings from then on; the SmolLM2 quickstart config keeps ``loss_only`` and ``CpuDropout`` and chose sdpa);
-- ``after, sdpa`` / ``after, full head`` / ``after, nn.Dropout``: ``after`` with one change undone, to show
-  what each is worth. (Stage I has no LoRA, so no dropout variant.)
+- ``padded``: the LM head on labelled positions only (``loss_only``), ``CpuDropout`` (model/dropout.py), padded
+  batches (the settings up to 2026-11-27);
+- ``packed``: ``padded`` on packed rows with the shared prompt prefix once (model/packing.py; the default on the
+  CPU from 2026-11-28);
+- ``packed, eager``: ``packed`` with eager attention; ``packed, full head`` / ``packed, nn.Dropout``: ``packed``
+  with one earlier speed-up undone, to show what each is still worth. (Stage I has no LoRA, so no dropout variant.)
 
-The first 5 steps (warm-up) are not counted. Results: benchmarks/results/train_speed.{json,md} (its 2026-11-25 figures
-are the tiny default's, before the quickstart moved to SmolLM2).
+The first 5 steps (warm-up) are not counted. Results: benchmarks/results/train_speed.{json,md}.
 """
 
 from __future__ import annotations
@@ -33,14 +34,17 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, publish, stamp
 
+_BASE = {"attention": "sdpa", "loss_only": True, "cpu_dropout": True, "pack": True}
 VARIANTS = {
-    1: {"before": ("sdpa", False, False), "after": ("eager", True, True),
-        "after, sdpa": ("sdpa", True, True), "after, full head": ("eager", False, True)},
-    2: {"before": ("sdpa", False, False), "after": ("eager", True, True),
-        "after, sdpa": ("sdpa", True, True), "after, full head": ("eager", False, True),
-        "after, nn.Dropout": ("eager", True, False)},
+    "before": {**_BASE, "loss_only": False, "cpu_dropout": False, "pack": False},
+    "padded": {**_BASE, "pack": False},
+    "packed": _BASE,
+    "packed, eager": {**_BASE, "attention": "eager"},
+    "packed, full head": {**_BASE, "loss_only": False},
+    "packed, nn.Dropout": {**_BASE, "cpu_dropout": False},
 }
-"""Per stage: variant → (attention, loss_only, CpuDropout)."""
+"""Variant → its settings; the first is the reference of the × column."""
+STAGE1_SKIPS = ("packed, nn.Dropout",)
 WARMUP = 5
 
 
@@ -53,10 +57,10 @@ class Switch:
         from tacreasoner.model import modeling, stages
         from tacreasoner.model.dropout import CpuDropout
 
-        self.names = list(VARIANTS[stage])
+        self.names = [n for n in VARIANTS if not (stage == 1 and n in STAGE1_SKIPS)]
         self.times: dict[str, list[float]] = {n: [] for n in self.names}
         self.step, self.started, self.model = 0, 0.0, None
-        self.loss_only = True
+        self.loss_only, self.pack = True, True
         self._nn, self._cpu_dropout = nn, CpuDropout
         configure = stages.configure_stage
 
@@ -68,15 +72,23 @@ class Switch:
         forward = modeling.TacReasonerForCausalLM.forward
         switch = self
 
-        def patched(model_self, *args, loss_only: bool = False, **kwargs):
-            return forward(model_self, *args, loss_only=loss_only and switch.loss_only, **kwargs)
+        def patched(model_self, *args, loss_only: bool = False, pack: bool = False, **kwargs):
+            return forward(model_self, *args, loss_only=loss_only and switch.loss_only,
+                           pack=pack and loss_only and switch.loss_only and switch.pack, **kwargs)
 
         modeling.TacReasonerForCausalLM.forward = patched
+        self._restore = lambda: (setattr(stages, "configure_stage", configure),
+                                 setattr(modeling.TacReasonerForCausalLM, "forward", forward))
+
+    def close(self) -> None:
+        """Undo the patches: a second stage's switch must wrap the real forward, not this one (until 2026-11-27
+        Stage II ran under Stage I's last variant too, so its rows could not differ in head or packing)."""
+        self._restore()
 
     def set(self, name: str, stage: int) -> None:
-        attention, loss_only, cpu_dropout = VARIANTS[stage][name]
-        self.model.language_model.config._attn_implementation = attention
-        self.loss_only = loss_only
+        settings = VARIANTS[name]
+        self.model.language_model.config._attn_implementation = settings["attention"]
+        self.loss_only, self.pack, cpu_dropout = settings["loss_only"], settings["pack"], settings["cpu_dropout"]
         for module in self.model.modules():
             drops = getattr(module, "lora_dropout", None)
             if isinstance(drops, self._nn.ModuleDict):
@@ -105,6 +117,7 @@ def run_stage(run: Path, stage: int, steps: int, work: Path) -> dict[str, list[f
     config = quickstart_config(paths, 0, overrides={"output_dir": str(work / f"stage{stage}_run")})
     config.runtime.log_with, config.runtime.progress = "none", False
     config.runtime.log_every, config.runtime.checkpoint_every = 1, 10**9
+    config.runtime.pack_sequences = True  # the trainer asks for packing; each variant decides
     config.stage(stage).steps = steps
     if stage == 2:
         stage1 = paths.train(0) / "stage1"
@@ -113,8 +126,11 @@ def run_stage(run: Path, stage: int, steps: int, work: Path) -> dict[str, list[f
         shutil.copytree(stage1 / "model", target / "model")
         for name in ("run.json", "train_log.jsonl"):
             shutil.copy(stage1 / name, target / name)
-    switch = Switch(stage)  # step 1 runs the trainer's own settings ("after"): it is inside the warm-up
-    train_stage(config, stage, on_log=switch.on_log(stage))
+    switch = Switch(stage)  # step 1 runs the trainer's own settings: it is inside the warm-up
+    try:
+        train_stage(config, stage, on_log=switch.on_log(stage))
+    finally:
+        switch.close()
     return switch.times
 
 
@@ -131,7 +147,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for stage in (1, 2):
             times = run_stage(args.run, stage, args.steps, Path(tmp))
-            base = statistics.mean(times["before"])
+            base = statistics.mean(times[next(iter(VARIANTS))])
             results[f"stage{stage}"] = {}
             for name, values in times.items():
                 mean = statistics.mean(values)
@@ -142,9 +158,11 @@ def main() -> None:
     md = header_md("Training step time of the quickstart's recipe: CPU speed-ups side by side", info)
     md += (f"Run: `{args.run}` (the quickstart's data, LLM, encoder and Stage I model); the quickstart's settings, "
            f"{args.steps} steps per stage with the variant switched at every step (round robin), the first {WARMUP} "
-           "not counted. `before`: sdpa attention, LM head over every position, `nn.Dropout` in LoRA; `after`: "
-           "eager attention, LM head on the labelled positions only (`loss_only`), `CpuDropout` "
-           "(model/dropout.py); the other rows undo one of the three.\n\n")
+           "not counted. `before`: LM head over every position, `nn.Dropout` in LoRA, padded batches; `padded`: LM "
+           "head on the labelled positions only (`loss_only`), `CpuDropout` (model/dropout.py), padded batches (the "
+           "quickstart until 2026-11-27); `packed`: `padded` on packed rows with the shared prompt prefix once "
+           "(model/packing.py; the CPU default now); the other rows change one thing of `packed`. Attention: sdpa "
+           "(the quickstart config's) unless named.\n\n")
     md += md_table(["stage", "variant", "steps", "mean s/step", "median s/step", "× before"], rows)
     publish("train_speed", {**info, "run": str(args.run), "steps_per_stage": args.steps, "stages": results}, md)
 

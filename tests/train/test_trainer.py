@@ -99,6 +99,19 @@ def test_gradient_accumulation_matches_a_larger_batch(inputs, tmp_path) -> None:
         torch.testing.assert_close(a[name], b[name], rtol=1e-4, atol=1e-5, msg=name)
 
 
+def test_packed_rows_train_to_the_same_weights_as_padded_batches(inputs, tmp_path) -> None:
+    common = {"stage1": {"skip": True}, "stage2": {"steps": 2, "batch_size": 4}}
+    padded = tiny_config(inputs, tmp_path / "padded", runtime={"pack_sequences": False}, **common)
+    packed = tiny_config(inputs, tmp_path / "packed", **common)  # the default on the CPU
+    train_stage(padded, 2)
+    train_stage(packed, 2)
+    runs = [json.loads((tmp_path / name / "stage2" / "run.json").read_text()) for name in ("padded", "packed")]
+    assert [run["packed"] for run in runs] == [False, True]
+    a, b = _adapter_weights(tmp_path / "padded"), _adapter_weights(tmp_path / "packed")
+    for name in a:
+        torch.testing.assert_close(a[name], b[name], rtol=1e-4, atol=1e-5, msg=name)
+
+
 def test_activation_checkpointing_trains_to_the_same_weights_without_deprecation_warnings(inputs, tmp_path) -> None:
     common = {"stage1": {"skip": True}, "stage2": {"steps": 2}}
     plain = tiny_config(inputs, tmp_path / "plain", **common)

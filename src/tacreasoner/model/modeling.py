@@ -20,6 +20,7 @@ from transformers.modeling_outputs import CausalLMOutputWithPast
 from tacreasoner.model.configuration import TacReasonerConfig
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.heads.hook import build_heads
+from tacreasoner.model.packing import PACKABLE_ATTENTION, pack_rows
 from tacreasoner.model.processing import OPTION_MASK_OFFSET
 from tacreasoner.model.tactile_encoder import DynamicTactileEncoder, TactileProjector
 
@@ -273,11 +274,13 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
                 position_ids: torch.Tensor | None = None, past_key_values: Any = None,
                 inputs_embeds: torch.Tensor | None = None, use_cache: bool | None = None,
                 appearance_tokens: torch.Tensor | None = None, video_winner: torch.Tensor | None = None,
-                readings: dict[str, torch.Tensor] | None = None, loss_only: bool = False,
+                readings: dict[str, torch.Tensor] | None = None, loss_only: bool = False, pack: bool = False,
                 **kwargs: Any) -> CausalLMOutputWithPast:
         """``loss_only`` (with ``labels``): the LM head and its softmax run on the labelled positions only and
         no logits are returned: the same loss and gradients for a fraction of the work where prompts and
-        padding outnumber answer tokens (training; benchmarks/results/train_speed.md).
+        padding outnumber answer tokens (training; benchmarks/results/train_speed.md). ``pack`` (with
+        ``loss_only``): the LM runs on packed rows without padding and with the prefix every sample shares computed
+        once (:mod:`tacreasoner.model.packing`): again the same loss and gradients, for fewer positions.
         ``appearance_tokens`` (optional, V×tokens_per_video×hidden): cached output of the frozen ViT.
         ``video_winner`` (optional, B or B×3): per prompt the place of the video its comparison picks, and
         optionally the index of its attribute in ``encoder.cross_video_attributes`` and whether it asks for more (1)
@@ -296,7 +299,13 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
         if past_key_values is not None:  # passed on only when given: newer transformers call it `cache` and warn
             kwargs["past_key_values"] = past_key_values
         if loss_only and labels is not None and kwargs.get("past_key_values", kwargs.get("cache")) is None:
-            out = self._labelled_loss(inputs_embeds, attention_mask, position_ids, labels, **kwargs)
+            shareable = None
+            if pack and input_ids is not None:  # only plain token rows may be shared, never a clip's or a mark's
+                shareable = input_ids != self.config.tactile_token_id
+                if question_mask is not None:
+                    shareable &= question_mask == 0
+            out = self._labelled_loss(inputs_embeds, attention_mask, position_ids, labels, pack=pack,
+                                      shareable=shareable, **kwargs)
         else:
             out = self.language_model(inputs_embeds=inputs_embeds, attention_mask=attention_mask, labels=labels,
                                       position_ids=position_ids, use_cache=use_cache, **kwargs)
@@ -306,13 +315,22 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
 
     def _labelled_loss(self, inputs_embeds: torch.Tensor, attention_mask: torch.Tensor | None,
                        position_ids: torch.Tensor | None, labels: torch.Tensor,
-                       num_items_in_batch: torch.Tensor | float | None = None, **kwargs: Any) -> CausalLMOutputWithPast:
+                       num_items_in_batch: torch.Tensor | float | None = None, pack: bool = False,
+                       shareable: torch.Tensor | None = None, **kwargs: Any) -> CausalLMOutputWithPast:
         """The causal LM loss of ``transformers`` (next-token cross-entropy, −100 ignored, summed over
-        ``num_items_in_batch`` or averaged) with the LM head applied to the labelled positions only."""
+        ``num_items_in_batch`` or averaged) with the LM head applied to the labelled positions only; ``pack``: on
+        packed rows where the batch and the attention allow it."""
         lm = self.language_model
+        targets = nn.functional.pad(labels, (0, 1), value=-100)[:, 1:]
+        packed = None
+        if pack and attention_mask is not None and position_ids is None and \
+                lm.config._attn_implementation in PACKABLE_ATTENTION:
+            packed = pack_rows(inputs_embeds, attention_mask, targets, shareable)
+        if packed is not None:
+            inputs_embeds, attention_mask = packed.inputs_embeds, packed.attention_mask
+            position_ids, targets = packed.position_ids, packed.targets
         hidden = lm.get_decoder()(inputs_embeds=inputs_embeds, attention_mask=attention_mask,
                                   position_ids=position_ids, use_cache=False, **kwargs).last_hidden_state
-        targets = nn.functional.pad(labels, (0, 1), value=-100)[:, 1:]
         keep = targets != -100
         logits = lm.get_output_embeddings()(hidden[keep]).float()
         loss = nn.functional.cross_entropy(logits, targets[keep], reduction="sum")

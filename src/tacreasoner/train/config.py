@@ -225,6 +225,10 @@ class RuntimeSettings:
     """CPU threads per process (default: alone, the cores not busy with other work; with several processes on one
     machine, an equal share of its cores)."""
     progress: bool = True
+    pack_sequences: bool | None = None
+    """Run the LM on packed rows: no padding, the prefix every sample of a batch shares computed once
+    (model/packing.py; the same loss and gradients up to float rounding). Default (null): on the CPU, where a step
+    costs what its positions cost (benchmarks/results/train_speed.md); off on GPUs, where it is unmeasured."""
 
     def check(self) -> None:
         if self.mixed_precision not in MIXED_PRECISION:

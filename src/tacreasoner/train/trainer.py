@@ -308,6 +308,9 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: ProgressBar, la
                   if stage == 1 and base.encoder_config.cross_video_loss > 0 else None)
 
     world = accelerator.num_processes
+    pack = config.runtime.pack_sequences
+    if pack is None:
+        pack = accelerator.device.type == "cpu"
     micro_batch = settings.micro_batch(f"stage{stage}", world)
     global_batch = settings.examples_per_step(f"stage{stage}", world)
     lengths = [len(e.input_ids) for e in tokenized]
@@ -325,7 +328,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: ProgressBar, la
     run_info = {"stage": stage, "config": config.to_dict(), "examples": len(tokenized),
                 "dropped_too_long": len(dropped), "dropped_examples": dropped[:20], "videos": len(bank.index),
                 "processes": world, "global_batch": global_batch, "engine": _engine_name(accelerator),
-                "mixed_precision": accelerator.mixed_precision, "device": str(accelerator.device),
+                "mixed_precision": accelerator.mixed_precision, "device": str(accelerator.device), "packed": pack,
                 "threads": torch.get_num_threads(),
                 "trainable_parameters": sum(p.numel() for p in base.parameters() if p.requires_grad),
                 "total_parameters": sum(p.numel() for p in base.parameters())}
@@ -356,7 +359,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: ProgressBar, la
             ctx = accelerator.no_sync(trained) if not sync and world > 1 else nullcontext()
             with ctx, accelerator.autocast():
                 # the LM's loss is sum / num_items_in_batch; DDP then averages over processes, hence × world
-                loss = trained(**batch, num_items_in_batch=global_tokens / world, loss_only=True).loss
+                loss = trained(**batch, num_items_in_batch=global_tokens / world, loss_only=True, pack=pack).loss
                 if loss_hook is not None:
                     loss = loss_hook(index, m, loss)
                 _refuse_non_finite(accelerator, loss, stage, index, m, len(micro), [tokenized[i].key for i in chunk])
