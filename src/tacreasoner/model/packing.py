@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import torch
+from torch.nn.utils.rnn import pad_sequence
 
 __all__ = ["PACKABLE_ATTENTION", "PackedRows", "pack_rows", "shared_prefix_length"]
 
@@ -86,13 +87,11 @@ def pack_rows(inputs_embeds: torch.Tensor, attention_mask: torch.Tensor, targets
         flat.append(torch.cat(index))
         positions.append(torch.cat(pos))
         segment.append(torch.cat(seg))
-    width = max(len(f) for f in flat)
-    gather = torch.zeros(len(rows), width, dtype=torch.long)
-    pos_ids = torch.zeros(len(rows), width, dtype=torch.long)
-    seg_ids = torch.full((len(rows), width), -2, dtype=torch.long)  # −2: a short row's padding
-    real = torch.zeros(len(rows), width, dtype=torch.bool)
-    for r, (f, p, s) in enumerate(zip(flat, positions, segment, strict=True)):
-        gather[r, :len(f)], pos_ids[r, :len(p)], seg_ids[r, :len(s)], real[r, :len(f)] = f, p, s, True
+    gather = pad_sequence(flat, batch_first=True)
+    pos_ids = pad_sequence(positions, batch_first=True)
+    seg_ids = pad_sequence(segment, batch_first=True, padding_value=-2)  # −2: a short row's padding
+    real = pad_sequence([torch.ones(len(f), dtype=torch.bool) for f in flat], batch_first=True)
+    width = gather.shape[1]
     device = inputs_embeds.device
     gather, pos_ids, seg_ids, real = (t.to(device) for t in (gather, pos_ids, seg_ids, real))
     hidden = inputs_embeds.reshape(batch * length, -1)[gather.reshape(-1)].reshape(len(rows), width, -1)
