@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -200,3 +201,17 @@ def test_installed_entry_point_prints_one_line_errors(tmp_path: Path) -> None:
     assert proc.returncode == 2
     assert proc.stderr.strip() == "error: number of objects (--objects) must be at least 1, got -3"
     assert proc.stdout == ""
+
+
+@pytest.mark.parametrize(("preset", "expected"), [(None, "False"), ("0", "True")])
+def test_piped_commands_turn_off_library_progress_bars(preset: str | None, expected: str) -> None:
+    """A command whose stderr is a pipe or a file turns off transformers' tqdm bars (they fill logs with carriage
+    returns) before transformers is imported; a user's own HF_HUB_DISABLE_PROGRESS_BARS wins."""
+    code = ("from tacreasoner.cli.app import quiet_library_bars; quiet_library_bars(); "
+            "from transformers.utils import logging; print(logging.is_progress_bar_enabled())")
+    env = {k: v for k, v in os.environ.items() if k != "HF_HUB_DISABLE_PROGRESS_BARS"}
+    if preset is not None:
+        env["HF_HUB_DISABLE_PROGRESS_BARS"] = preset
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == expected

@@ -9,6 +9,7 @@ from __future__ import annotations
 import functools
 import os
 import re
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, ParamSpec, TypeVar
@@ -124,3 +125,12 @@ def _root(
                                           help="Print the version and exit.")] = False,
 ) -> None:
     """TacReasoner: tactile-language reasoning. Simulate tactile video (DynTAC-Sim) and preview it."""
+    quiet_library_bars()
+
+
+def quiet_library_bars() -> None:
+    """Without a terminal (a log file, CI), no tqdm bars from Hugging Face libraries ("Loading weights: 18%|█▊…"
+    repeated with carriage returns): our own progress prints plain lines there. Set before transformers is
+    imported, which reads it once; a user's own setting wins."""
+    if sys.stderr is None or not sys.stderr.isatty():
+        os.environ.setdefault("HF_HUB_DISABLE_PROGRESS_BARS", "1")
