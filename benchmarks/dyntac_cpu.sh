@@ -41,8 +41,8 @@ train() {  # train VARIANT SEED STAGE
     $TR train --stage "$st" --resume --config "$CONFIG" --set seed="$s" --set output_dir="$dir" \
         --set model.llm="$Q/llm" --set model.appearance="$Q/encoder" --set data.bench="$Q/bench" \
         --set data.video_cache="$Q/video_cache" --set runtime.progress=false --set runtime.log_with=none \
-        ${SETS[$v]} $DRY >> "$OUT/logs/$v.seed$s.stage$st.log" 2>&1
-    touch "$dir/stage$st/run.done"
+        ${SETS[$v]} $DRY >> "$OUT/logs/$v.seed$s.stage$st.log" 2>&1 || { say "FAILED: $OUT/logs/$v.seed$s.stage$st.log"; return 1; }
+    touch "$dir/stage$st/run.done"  # (set -e does not act inside a function called from an && list: hence the ||)
 }
 
 score() {  # score VARIANT SEED MAX_NEW_TOKENS: val, and with HELDOUT=1 val in held-out wordings
@@ -51,14 +51,14 @@ score() {  # score VARIANT SEED MAX_NEW_TOKENS: val, and with HELDOUT=1 val in h
         if [ "$wording" = heldout ]; then
             bench=$OUT/bench_heldout out=$out"_heldout"
             [ -e "$bench/val.jsonl" ] || $TR paraphrase-bench --bench "$Q/bench" --out "$bench" --splits val \
-                >> "$OUT/logs/paraphrase-bench.log" 2>&1
+                >> "$OUT/logs/paraphrase-bench.log" 2>&1 || return 1
         fi
         [ -e "$out/report.json" ] && continue
         say "$v seed $s: answering val ($wording wordings)"
         # shellcheck disable=SC2086
         $TR evaluate --model "$OUT/runs/$v.seed$s/stage2/model" --bench "$bench" --split val --out "$out" \
             --batch-size 48 --max-new-tokens "$3" --video-cache "$Q/video_cache" $LIMIT \
-            >> "$OUT/logs/$v.seed$s.eval.log" 2>&1
+            >> "$OUT/logs/$v.seed$s.eval.log" 2>&1 || { say "FAILED: $OUT/logs/$v.seed$s.eval.log"; return 1; }
     done
 }
 
@@ -75,7 +75,7 @@ link_quickstart_seed0() {  # the quickstart's own seed-0 run is rec.seed0: same 
 touchcot() {  # the TouchCoT train file for cot, built once (offline rules teacher)
     [ -e "$OUT/touchcot/touchcot/touchcot_train.jsonl" ] && return 0
     say "building TouchCoT (rules teacher)"
-    $TR build-cot --bench "$Q/bench" --out "$OUT/touchcot" --teacher rules >> "$OUT/logs/touchcot.log" 2>&1
+    $TR build-cot --bench "$Q/bench" --out "$OUT/touchcot" --teacher rules >> "$OUT/logs/touchcot.log" 2>&1 || return 1
 }
 
 link_quickstart_seed0
@@ -85,12 +85,12 @@ for job in "${JOBS[@]}"; do
         "one of ${!SETS[*]}" >&2; exit 2; }
     case $v in
     cot)
-        train rec "$s" 1 && touchcot
+        train rec "$s" 1 && touchcot || exit 1
         mkdir -p "$OUT/runs/cot.seed$s"
         [ -e "$OUT/runs/cot.seed$s/stage1" ] || ln -s "../rec.seed$s/stage1" "$OUT/runs/cot.seed$s/stage1"
-        train cot "$s" 2 && score cot "$s" 256 ;;
+        train cot "$s" 2 && score cot "$s" 256 || exit 1 ;;
     *)
-        train "$v" "$s" 1 && train "$v" "$s" 2 && score "$v" "$s" 64 ;;
+        train "$v" "$s" 1 && train "$v" "$s" 2 && score "$v" "$s" 64 || exit 1 ;;
     esac
 done
 say "done: ${JOBS[*]}"
