@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
+import math
 import os
 import platform
 import shlex
@@ -74,3 +75,13 @@ def publish(name: str, payload: dict, markdown: str, directory: Path | None = No
     paths = write_results(name, payload, markdown, directory)
     print(markdown)
     print("wrote", *paths)
+
+
+def pct(x: float | None) -> str:
+    """A fraction as a percentage with one decimal; "–" where there is none (None or NaN)."""
+    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.1f}"
+
+
+def pm(mean: float, std: float | None) -> str:
+    """mean ± std in %, the mean alone where one seed leaves no spread."""
+    return pct(mean) if std is None or math.isnan(std) else f"{pct(mean)} ± {pct(std)}"

@@ -15,12 +15,11 @@ training budgets (benchmarks/results/quickstart_budget_val.md).
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, md_table, publish, stamp
+from _common import header_md, md_table, pct, pm, publish, stamp
 from tacreasoner.evaluate.report import compare_runs, load_scored, summarize
 
 RECIPE = "rec"
@@ -43,14 +42,6 @@ def seeds_of(run: Path, variant: str, split: str) -> dict[int, list[dict]]:
         out[int(folder.parent.parent.name.rsplit("seed", 1)[1])] = load_scored(files[0])
     return dict(sorted(out.items()))
 
-
-def pct(x: float) -> str:
-    return f"{100 * x:.1f}"
-
-
-def pm(mean: float, std: float | None) -> str:
-    """mean ± std in %, the mean alone where one seed leaves no spread."""
-    return pct(mean) if std is None or math.isnan(std) else f"{pct(mean)} ± {pct(std)}"
 
 
 def recipe_table(runs: dict[int, list[dict]]) -> tuple[str, dict]:

@@ -14,12 +14,11 @@ share of checkable reasoning that contradicts itself or the question, and per se
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, md_table, publish, stamp
+from _common import header_md, md_table, pct, pm, publish, stamp
 from tacreasoner.evaluate.report import Report, compare_runs, load_scored, summarize
 
 SUFFIX = "-heldout"
@@ -36,13 +35,6 @@ def paired_records(template: Path, heldout: Path) -> tuple[list[dict], list[dict
                          f"(both files must score the same benchmark's split)")
     return base, held
 
-
-def pct(x: float | None) -> str:
-    return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.1f}"
-
-
-def pm(mean: float, std: float | None) -> str:
-    return pct(mean) if std is None or math.isnan(std) else f"{pct(mean)} ± {pct(std)}"
 
 
 def checked(rep: Report, task: str | None = None) -> str:
