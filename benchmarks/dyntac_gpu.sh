@@ -30,9 +30,10 @@
 # fitting the read-out heads on the CPU) and then 0.45-0.55 s/step, so one chain needs ~15 min: more than a 15-minute
 # lease holds. Run a subset per lease (VARIANTS, SEEDS). With 3 chains at once (VARIANTS="rec no_stage2" THREADS=4,
 # the second lease) Stage I took ~70 s a run, Stage II ~225 s (set-up included) and a scoring ~25 s: the set-up and
-# about two variants x 3 seeds fit one lease. Left after it (2026-11-27): VARIANTS="no_dyn no_qcond cot" THREADS=2
-# (9 chains at once; cot trains the recipe's Stage I of its seed itself when rec is not among the variants; the
-# comparator's cross-fit is faster since ba2a2b0).
+# about two variants x 3 seeds fit one lease. The third lease (VARIANTS="no_dyn no_qcond" THREADS=2, 6 chains at
+# once) finished in 479 s of part 2 after a 24 s set-up call: Stage I ~80 s, Stage II ~230 s, a val scoring ~30 s.
+# Left (2026-11-27): cot (VARIANTS=cot: it trains the recipe's Stage I of its seed itself when rec is not among the
+# variants, and answers with up to 256 tokens).
 set -u
 export PYTHONUNBUFFERED=1 PYTHONPATH=/tmp/site:$PWD/src
 W=${W:-/tmp/w}
@@ -116,7 +117,9 @@ pipeline() {
         --set stage1.steps=1 --set output_dir="$W/warm" --set model.llm="$W/smollm2" --set model.appearance="$W/encoder" \
         --set data.bench="$W/bench" --set data.video_cache="$W/video_cache" --set runtime.progress=false || return 1
     local v s
-    for s in val test; do  # the val and test clips decoded into the cache once, beside the chains' Stage I
+    local splits=val
+    [[ " ${VARIANTS[*]} " == *" rec "* ]] && splits="val test"  # only the recipe is scored on test
+    for s in $splits; do  # the scored splits' clips decoded into the cache once, beside the chains' Stage I
         # shellcheck disable=SC2086
         TACREASONER_VIDEO_WORKERS=6 step "decode_$s" "$W/decoded/$s/report.md" $TR evaluate --model \
             "$W/warm/stage1/model" --bench "$W/bench" --split "$s" --out "$W/decoded/$s" --max-new-tokens 1 \
@@ -146,8 +149,9 @@ prep)
             -d .gpu/whl av==18.1.0 transformers==5.24.0 gguf==0.19.0 || exit 1
         python3 -m pip download -q --no-deps -d .gpu/whl efficientnet-lite-pytorch==0.1.0 || exit 1  # pure Python
     fi
-    cp -r "$Q/bench" "$Q/encoder" .gpu/stage/ && cp "$COT" .gpu/stage/touchcot_train.jsonl
-    tar czf .gpu/data/data.tgz -C .gpu/stage bench encoder touchcot_train.jsonl && rm -rf .gpu/stage
+    cp -r "$Q/bench" "$Q/encoder" .gpu/stage/ || exit 1
+    if [[ " ${VARIANTS[*]} " == *" cot "* ]]; then cp "$COT" .gpu/stage/touchcot_train.jsonl || exit 1; fi
+    (cd .gpu/stage && tar czf ../data/data.tgz -- *) && rm -rf .gpu/stage
     head -c 50000000 "$GGUF" > .gpu/g1/part && tail -c +50000001 "$GGUF" > .gpu/g2/part
     md5sum < "$Q/sim/manifest.jsonl" | cut -c1-12 > .gpu/data/sim.md5
     du -sh .gpu/*
