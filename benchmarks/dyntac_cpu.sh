@@ -8,6 +8,8 @@
 #   JOBS   variant:seed pairs in order, e.g. "rec:1 no_dyn:0 no_qcond:0 cot:0" (default: all, seeds 0-2)
 #   DRY    a dry run's settings, e.g. DRY="--set stage1.steps=2 --set stage2.steps=2" LIMIT="--limit 8"
 #   HELDOUT=1  also score val asked in held-out wordings (paraphrase-bench, built once): eval/<v>.seed<S>/val_heldout
+#   EXTRA  more settings for every training, e.g. EXTRA="--set data.paraphrases=false --set runtime.threads=2"
+#          (the recipe before data.paraphrases shipped; threads fixed instead of read from the load at each start)
 # Variants: rec (the shipped config), no_dyn (use_temporal=false), no_qcond (question_conditioning=false), cot
 # (Stage II on TouchCoT from rec's Stage I of the seed, built once with the offline rules teacher); and a recipe
 # candidate, not a paper ablation: para (data.paraphrases=true: each train item also asked in a training wording).
@@ -21,6 +23,7 @@ OUT=${OUT:-runs/dyntac_cpu}
 TR=${TR:-tacreasoner}
 CONFIG=${CONFIG:-quickstart-smollm2-cpu}
 DRY=${DRY:-}
+EXTRA=${EXTRA:-}
 LIMIT=${LIMIT:-}
 read -r -a JOBS <<< "${JOBS:-rec:1 rec:2 no_dyn:0 no_qcond:0 no_dyn:1 no_qcond:1 no_dyn:2 no_qcond:2 cot:0 cot:1 cot:2}"
 declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
@@ -41,7 +44,7 @@ train() {  # train VARIANT SEED STAGE
     $TR train --stage "$st" --resume --config "$CONFIG" --set seed="$s" --set output_dir="$dir" \
         --set model.llm="$Q/llm" --set model.appearance="$Q/encoder" --set data.bench="$Q/bench" \
         --set data.video_cache="$Q/video_cache" --set runtime.progress=false --set runtime.log_with=none \
-        ${SETS[$v]} $DRY >> "$OUT/logs/$v.seed$s.stage$st.log" 2>&1 || { say "FAILED: $OUT/logs/$v.seed$s.stage$st.log"; return 1; }
+        ${SETS[$v]} $EXTRA $DRY >> "$OUT/logs/$v.seed$s.stage$st.log" 2>&1 || { say "FAILED: $OUT/logs/$v.seed$s.stage$st.log"; return 1; }
     touch "$dir/stage$st/run.done"  # (set -e does not act inside a function called from an && list: hence the ||)
 }
 
@@ -65,7 +68,10 @@ score() {  # score VARIANT SEED MAX_NEW_TOKENS: val, and with HELDOUT=1 val in h
 link_quickstart_seed0() {  # the quickstart's own seed-0 run is rec.seed0: same config, same data
     local dir="$OUT/runs/rec.seed0"
     [ -e "$dir" ] || [ ! -e "$Q/train/seed0/stage2/model/config.json" ] && return 0
-    mkdir -p "$dir" && for st in 1 2; do ln -s "$(realpath "$Q/train/seed0/stage$st")" "$dir/stage$st"; done
+    mkdir -p "$dir" && for st in 1 2; do
+        ln -s "$(realpath "$Q/train/seed0/stage$st")" "$dir/stage$st"
+        touch "$dir/stage$st/run.done"  # the quickstart finished both stages: never retrain them (cot reads Stage I)
+    done
     if [ -e "$Q/eval_val/scored" ]; then  # its val answers, when scored (tacreasoner evaluate --split val)
         mkdir -p "$OUT/eval/rec.seed0" && ln -s "$(realpath "$Q/eval_val")" "$OUT/eval/rec.seed0/val"
     fi
