@@ -12,7 +12,8 @@
 #          (the recipe before data.paraphrases shipped; threads fixed instead of read from the load at each start)
 # Variants: rec (the shipped config), no_dyn (use_temporal=false), no_qcond (question_conditioning=false), cot
 # (Stage II on TouchCoT from rec's Stage I of the seed, built once with the offline rules teacher); and a recipe
-# candidate, not a paper ablation: para (data.paraphrases=true: each train item also asked in a training wording).
+# candidate, not a paper ablation: para (data.paraphrases=true: each train item also asked in a training wording),
+# and para_osc (para with OSC's examples twice: OSC has no training wording, so para halves its share of Stage II).
 # rec:0 is the quickstart's own seed-0 model when Q holds it (train/seed0 and eval_val/: linked, not retrained).
 # Resumable: a finished stage is marked run.done, training resumes from its last checkpoint, a scored split is
 # skipped. Measured on a 2-core AMD EPYC with AVX512_BF16 (bf16): ~30 min of training and ~3 min of answering a chain.
@@ -29,7 +30,11 @@ read -r -a JOBS <<< "${JOBS:-rec:1 rec:2 no_dyn:0 no_qcond:0 no_dyn:1 no_qcond:1
 declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
                  [no_qcond]="--set model.encoder.question_conditioning=false"
                  [para]="--set data.paraphrases=true"
+                 [para_osc]="--set data.paraphrases=true --set data.repeat={\"OSC\":2}"
                  [cot]="--set data.stage2_data=touchcot --set data.touchcot=$OUT/touchcot/touchcot/touchcot_train.jsonl")
+# Stage II from another variant's Stage I of the seed: cot (its Stage I is the recipe's), para_osc (Stage I has no OSC
+# item, so repeating OSC changes Stage II only)
+declare -A STAGE1_FROM=([cot]=rec [para_osc]=para)
 for need in bench encoder llm video_cache; do
     [ -e "$Q/$need" ] || { echo "error: $Q/$need missing: Q must be a finished quickstart run folder" >&2; exit 2; }
 done
@@ -89,14 +94,15 @@ for job in "${JOBS[@]}"; do
     v=${job%:*} s=${job#*:}
     [[ -v "SETS[$v]" && $s =~ ^[0-9]+$ ]] || { echo "error: JOBS entry '$job': expected VARIANT:SEED with VARIANT" \
         "one of ${!SETS[*]}" >&2; exit 2; }
-    case $v in
-    cot)
-        train rec "$s" 1 && touchcot || exit 1
-        mkdir -p "$OUT/runs/cot.seed$s"
-        [ -e "$OUT/runs/cot.seed$s/stage1" ] || ln -s "../rec.seed$s/stage1" "$OUT/runs/cot.seed$s/stage1"
-        train cot "$s" 2 && score cot "$s" 256 || exit 1 ;;
-    *)
-        train "$v" "$s" 1 && train "$v" "$s" 2 && score "$v" "$s" 64 || exit 1 ;;
-    esac
+    if [ -n "${STAGE1_FROM[$v]:-}" ]; then  # Stage II only, from the Stage I of another variant with the same seed
+        base=${STAGE1_FROM[$v]}
+        train "$base" "$s" 1 || exit 1
+        [ "$v" = cot ] && { touchcot || exit 1; }
+        mkdir -p "$OUT/runs/$v.seed$s"
+        [ -e "$OUT/runs/$v.seed$s/stage1" ] || ln -s "../$base.seed$s/stage1" "$OUT/runs/$v.seed$s/stage1"
+        train "$v" "$s" 2 && score "$v" "$s" "$([ "$v" = cot ] && echo 256 || echo 64)" || exit 1
+    else
+        train "$v" "$s" 1 && train "$v" "$s" 2 && score "$v" "$s" 64 || exit 1
+    fi
 done
 say "done: ${JOBS[*]}"
