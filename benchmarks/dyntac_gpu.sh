@@ -32,8 +32,10 @@
 # the second lease) Stage I took ~70 s a run, Stage II ~225 s (set-up included) and a scoring ~25 s: the set-up and
 # about two variants x 3 seeds fit one lease. The third lease (VARIANTS="no_dyn no_qcond" THREADS=2, 6 chains at
 # once) finished in 479 s of part 2 after a 24 s set-up call: Stage I ~80 s, Stage II ~230 s, a val scoring ~30 s.
-# Left (2026-11-27): cot (VARIANTS=cot: it trains the recipe's Stage I of its seed itself when rec is not among the
-# variants, and answers with up to 256 tokens).
+# Left (2026-11-27): cot on the recipe the table holds, before data.paraphrases shipped (VARIANTS=cot
+# BASE="--set data.paraphrases=false" COT=runs/dyntac_cpu/touchcot/touchcot/touchcot_train.jsonl at prep: it trains
+# the recipe's Stage I of its seed itself when rec is not among the variants, and answers with up to 256 tokens; on
+# 2 CPU cores a TouchCoT Stage II step takes ~10 s, so there 3 seeds are ~6 hours).
 set -u
 export PYTHONUNBUFFERED=1 PYTHONPATH=/tmp/site:$PWD/src
 W=${W:-/tmp/w}
@@ -48,6 +50,8 @@ read -r -a SEEDS <<< "${SEEDS:-0 1 2}"
 STEPS=${STEPS:-}                           # dry runs: e.g. "--set stage1.steps=2 --set stage2.steps=2"
 LIMIT=${LIMIT:-}                           # dry runs: e.g. "--limit 8"
 THREADS=${THREADS:-1}                      # CPU threads per chain (heads' fits, data): 1 with 18 chains on 16 cores
+BASE=${BASE:-}                             # settings for every training, e.g. "--set data.paraphrases=false": the
+                                           # recipe before data.paraphrases shipped, which the ablation table pairs with
 # shellcheck source=benchmarks/_gpu_lib.sh
 source "$(dirname "${BASH_SOURCE[0]}")/_gpu_lib.sh"  # say, step, wait_for_jobs_until
 
@@ -70,7 +74,7 @@ train() {  # train VARIANT SEED STAGE
         $TR train --stage "$st" --resume \
         --config "$CONFIG" --set seed="$s" --set output_dir="$W/runs/$v.seed$s" --set model.llm="$W/smollm2" \
         --set model.appearance="$W/encoder" --set data.bench="$W/bench" --set data.video_cache="$W/video_cache" \
-        --set runtime.progress=false ${SETS[$v]} $STEPS
+        --set runtime.progress=false ${SETS[$v]} $BASE $STEPS
 }
 score() {  # score NAME MODEL SPLIT MAX_NEW_TOKENS
     # shellcheck disable=SC2086
