@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import io
+import sys
 
-from tacreasoner.progress import ProgressBar
+import pytest
+
+from tacreasoner.progress import ProgressBar, StageProgress
 
 
 def test_without_a_terminal_each_stage_prints_whole_lines_at_start_periodically_and_at_the_end() -> None:
@@ -46,3 +49,15 @@ def test_on_a_terminal_it_is_a_live_bar() -> None:
         bar.stage("stage 2 training", 3, unit="steps")
         bar.update(3, "loss 0.1")
     assert "stage 2 training" in out.getvalue() and "3/3" in out.getvalue()
+
+
+def test_a_finished_stage_says_done_at_once_not_when_the_next_one_starts(capsys: pytest.CaptureFixture[str]) -> None:
+    # piped quickstart logs printed an evaluation's "done" line after the next stage's output
+    with StageProgress() as bars:
+        bars("test, seed 0", 0, 2)
+        bars("test, seed 0", 2, 2)
+        print("next stage", file=sys.stderr)
+    lines = capsys.readouterr().err.splitlines()
+    done = [i for i, line in enumerate(lines) if line.startswith("test, seed 0: 2/2") and line.endswith("done")]
+    assert len(done) == 1 and done[0] < lines.index("next stage")
+    assert sum(line.endswith(("done", "stopped")) for line in lines) == 1

@@ -145,6 +145,8 @@ class StageProgress:
                 bar.close()
             self._bars[stage] = ClipProgress(stage, "clips" if stage == "prepare" else "samples")
         self._bars[stage](done, total)
+        if total and done >= total:  # say "done" now, not when the next stage (or the whole command) ends
+            self._bars.pop(stage).close()
 
     def close(self) -> None:
         for bar in self._bars.values():
