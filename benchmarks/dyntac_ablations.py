@@ -59,14 +59,15 @@ def without(runs: dict[int, list[dict]], task: str | None) -> dict[int, list[dic
     return {s: [r for r in recs if r["task"] != task] for s, recs in runs.items()} if task else runs
 
 
-def ablation_rows(run: Path, recipe: dict[int, list[dict]], variants: dict[str, str],
+def ablation_rows(recipe: dict[int, list[dict]], variants: dict[str, str], scored: dict[str, dict[int, list[dict]]],
                   leave_out: str | None = None) -> tuple[list[list], dict]:
-    """One row per scored variant against the recipe; ``leave_out`` drops one task from both sides first."""
+    """One row per variant against the recipe (``scored``: its val records by seed); ``leave_out`` drops one task
+    from both sides first."""
     rows, payload = [], {}
     recipe = without(recipe, leave_out)
     base = summarize({f"seed{s}": recs for s, recs in recipe.items()})
     for variant, label in variants.items():
-        runs = without({s: recs for s, recs in seeds_of(run, variant, "val").items() if s in recipe}, leave_out)
+        runs = without(scored[variant], leave_out)
         if not runs:
             rows.append([label, "not run", "", "", ""])
             continue
@@ -95,19 +96,15 @@ def ablation_rows(run: Path, recipe: dict[int, list[dict]], variants: dict[str, 
     return rows, payload
 
 
-def per_task_table(run: Path, recipe: dict[int, list[dict]], variants: dict[str, str]) -> str:
+def per_task_table(recipe: dict[int, list[dict]], scored: dict[str, dict[int, list[dict]]]) -> str:
     """Per task, each scored variant's mean over its seeds beside the recipe's: which tasks an ablation moves."""
     reps = {"recipe": summarize({f"seed{s}": recs for s, recs in recipe.items()})}
-    for variant in variants:
-        runs = {s: recs for s, recs in seeds_of(run, variant, "val").items() if s in recipe}
-        if runs:
-            reps[variant] = summarize({f"seed{s}": recs for s, recs in runs.items()})
+    reps |= {v: summarize({f"seed{s}": recs for s, recs in runs.items()}) for v, runs in scored.items() if runs}
     means = {name: {t.task: t.mean for t in rep.tasks} for name, rep in reps.items()}
     others = [v for v in reps if v != "recipe"]
-    rows = []
-    for task, base in means["recipe"].items():
-        cells = [(means[v].get(task, float("nan")), v) for v in others]
-        rows.append([task, pct(base)] + [f"{pct(m)} ({100 * (m - base):+.1f})" for m, _ in cells])
+    rows = [[task, pct(base)] + [f"{pct(m)} ({100 * (m - base):+.1f})"
+                                 for m in (means[v].get(task, float("nan")) for v in others)]
+            for task, base in means["recipe"].items()]
     return md_table(["task", "recipe", *others], rows)
 
 
@@ -144,7 +141,9 @@ def main() -> None:
     if test:
         table, payload["recipe_test"] = recipe_table(test)
         md += f"\n## The recipe on test (scored once, {len(test)} seeds)\n\n" + table
-    rows, payload["ablations"] = ablation_rows(args.run, recipe, variants)
+    # each variant's val records read once, for the tables below
+    scored = {v: {s: recs for s, recs in seeds_of(args.run, v, "val").items() if s in recipe} for v in variants}
+    rows, payload["ablations"] = ablation_rows(recipe, variants, scored)
     md += ("\n## " + ("Ablations on val (the paper's Tables 3/4)" if variants is ABLATIONS else "Variants on val")
            + "\n\nAverage: mean ± std over seeds (seeds). Δ: the "
            "ablation's Average minus the recipe's, per seed. p: exact McNemar over all val items per seed (↓ items "
@@ -152,15 +151,15 @@ def main() -> None:
            "(p < 0.05), by direction.\n\n")
     md += md_table(["model", "Average (val)", "Δ per seed (points)", "p per seed", "verdict"], rows)
     if "TSA" in {r["task"] for recs in recipe.values() for r in recs}:
-        rows, payload["ablations_without_TSA"] = ablation_rows(args.run, recipe, variants, leave_out="TSA")
+        rows, payload["ablations_without_TSA"] = ablation_rows(recipe, variants, scored, leave_out="TSA")
         md += ("\n### The same without TSA\n\nTSA (scenario choice) is zero-shot, never trained on: its score is "
                "mostly whether a reply gives the option's letter (strict extraction), which swings by seed (the "
-               "recipe's TSA: see the per-seed spread above). A sensitivity check, not the paper's metric: the "
+               "recipe's TSA row above: its std over seeds). A sensitivity check, not the paper's metric: the "
                "Average over the other ten tasks, the same tests on their items.\n\n")
         md += md_table(["model", "Average w/o TSA (val)", "Δ per seed (points)", "p per seed", "verdict"], rows)
     md += ("\n## Per task on val\n\nMean over seeds (the variant minus the recipe, points); a task's n is in the "
            "recipe's table above, so one item of 75 is 1.3 points of one seed.\n\n")
-    md += per_task_table(args.run, recipe, variants)
+    md += per_task_table(recipe, scored)
     publish(args.name, payload, md)
 
 
