@@ -56,6 +56,32 @@ def test_loss_only_gives_the_full_heads_loss_and_gradients(num_items: float | No
         assert torch.allclose(only_grads[name], grad, atol=1e-6), name
 
 
+def test_the_cpu_autocast_head_casts_a_frozen_matrix_once_and_again_when_it_changes() -> None:
+    """The training loss's LM head keeps its bf16 cast of the frozen output matrix between steps: the logits equal
+    the plain head's, a changed matrix is cast anew, and the new tokens' rows still learn."""
+    from tacreasoner.model.token_rows import train_token_rows
+
+    model = tiny_model()
+    for p in model.parameters():
+        p.requires_grad_(False)
+    (rows,) = train_token_rows(model.language_model, [296, 297])
+    head = model.language_model.get_output_embeddings()
+    hidden = torch.randn(5, TEXT_HIDDEN)
+    with torch.autocast("cpu", dtype=torch.bfloat16):
+        got = model._head(hidden)
+        assert got.dtype == torch.bfloat16 and torch.equal(got, head(hidden))
+        cast = model.__dict__["_cast_head"][2]
+        model._head(hidden)
+        assert model.__dict__["_cast_head"][2] is cast  # kept, not cast again
+        with torch.no_grad():
+            head.weight[5] += 1.0
+        again = model._head(hidden)
+        assert model.__dict__["_cast_head"][2] is not cast and torch.equal(again, head(hidden))
+        again.float().sum().backward()
+    assert rows.grad is not None and rows.grad.abs().sum() > 0
+    assert "_cast_head" not in model.state_dict() and all("_cast_head" not in n for n, _ in model.named_buffers())
+
+
 def test_tactile_embeddings_land_on_the_placeholders_in_video_order() -> None:
     model = tiny_model(question_conditioning=False)
     inputs = batch([prompt(1), prompt(2)])

@@ -52,7 +52,7 @@ def test_qwen25_7b_shapes_count_the_published_size(qwen7b: ModelShapes) -> None:
     parts = dict(qwen7b.trainable_parts)
     # LoRA r 128 on q/k/v/o: r·(in + out) per projection, 28 layers (k and v map 3584 → 4 KV heads × 128)
     assert parts["LoRA r 128 on q_proj/k_proj/v_proj/o_proj"] == 28 * 128 * (2 * (3584 + 3584) + 2 * (3584 + 512))
-    assert parts["new token rows"] == 5 * 3584
+    assert parts["new token rows"] == 2 * 5 * 3584  # untied: input and output rows, as in Stage I (since 2026-11-28)
     assert qwen7b.weight_dtype == "bfloat16"
     assert qwen7b.frozen_bytes == pytest.approx(2 * (qwen7b.parameters - qwen7b.trainable), rel=1e-3)
 

@@ -11,6 +11,7 @@ from transformers import AutoTokenizer, PreTrainedModel, PreTrainedTokenizerBase
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.modeling import TacReasonerForCausalLM
 from tacreasoner.model.processing import PROCESSOR_CONFIG_NAME, TacReasonerProcessor
+from tacreasoner.model.token_rows import save_token_rows
 from tacreasoner.model.tokenizer import TACTILE_PAD, prepare_tokenizer
 
 __all__ = ["appearance_video_settings", "build_model", "load_model", "save_model"]
@@ -70,9 +71,12 @@ def appearance_video_settings(appearance: str | os.PathLike[str]) -> dict[str, A
 
 
 def save_model(model: Any, processor: TacReasonerProcessor, directory: str | os.PathLike[str]) -> Path:
-    """Model (config + safetensors, or a PEFT adapter) and processor side by side in one directory."""
+    """Model (config + safetensors, or a PEFT adapter with the new tokens' trained rows) and processor side by side
+    in one directory."""
     directory = Path(directory)
     model.save_pretrained(directory)
+    if hasattr(model, "get_base_model"):  # PEFT: its file holds LoRA + projector; the rows are ours (token_rows)
+        save_token_rows(model.get_base_model().language_model, directory)
     processor.save_pretrained(directory)
     return directory
 

@@ -4,7 +4,7 @@
                           tokens added to the LLM's vocabulary (as small row tables, merged back on save).
                           LLM and appearance ViT frozen.
     Stage II (SFT):       projector + LoRA on the LLM's attention projections (+ the rows of the added tokens,
-                          as PEFT trainable tokens). Whole tactile encoder frozen.
+                          as in Stage I; saved beside the adapter). Whole tactile encoder frozen.
 
 The appearance branch is never trained here (it is pre-trained by ``pretrain-encoder``).
 """
@@ -23,7 +23,7 @@ from torch import nn
 
 from tacreasoner.fields import reject_unknown_fields
 from tacreasoner.model.modeling import TacReasonerForCausalLM
-from tacreasoner.model.token_rows import TokenRows, merge_token_rows, train_token_rows
+from tacreasoner.model.token_rows import TokenRows, load_token_rows, merge_token_rows, train_token_rows
 
 __all__ = ["STAGES", "LoraSettings", "configure_stage", "load_adapter", "merge_adapter", "no_decay_parameter_names",
            "trainable_parameter_names"]
@@ -56,17 +56,16 @@ class LoraSettings:
         reject_unknown_fields(cls, data, "lora: unknown keys", known="declared")
         return cls(**data)
 
-    def peft_config(self, new_token_ids: list[int] | None = None) -> Any:
-        """LoRA on the LM's projections + the projector; ``new_token_ids``' embedding rows train too (PEFT
-        trainable tokens, saved with the adapter): rows the LLM never learnt would otherwise stay frozen."""
+    def peft_config(self) -> Any:
+        """LoRA on the LM's projections + the projector. The new tokens' rows are not PEFT's trainable tokens:
+        those rebuild the whole 49k-row matrix (and its gradient) every step, a sixth of a CPU step
+        (benchmarks/results/train_speed.md); :func:`configure_stage` gives them row tables instead."""
         from peft import LoraConfig
 
         names = "|".join(self.target_modules)
-        tokens = {"embed_tokens": sorted(new_token_ids)} if new_token_ids else None
         # only the language model's projections: the tactile encoder has none of these names, but be explicit
         return LoraConfig(r=self.r, lora_alpha=self.alpha, lora_dropout=self.dropout,
-                          target_modules=rf".*language_model\..*\.({names})", modules_to_save=["projector"],
-                          trainable_token_indices=tokens)
+                          target_modules=rf".*language_model\..*\.({names})", modules_to_save=["projector"])
 
 
 def _freeze(module: nn.Module) -> None:
@@ -107,10 +106,10 @@ def configure_stage(model: TacReasonerForCausalLM, stage: int, lora: LoraSetting
 
     from tacreasoner.model.dropout import use_cpu_dropout
 
-    new_ids = list(model.config.new_token_ids or [])
     with _without_peft_deprecation_noise():
-        peft_model = get_peft_model(model, (lora or LoraSettings()).peft_config(new_ids))
+        peft_model = get_peft_model(model, (lora or LoraSettings()).peft_config())
     use_cpu_dropout(peft_model)  # the same dropout, half the cost on the CPU (model/dropout.py)
+    _train_new_rows(model)  # after PEFT, which freezes everything but its adapter; saved by save_token_rows
     return peft_model
 
 
@@ -129,13 +128,14 @@ def trainable_parameter_names(model: nn.Module) -> list[str]:
 
 
 def load_adapter(model: TacReasonerForCausalLM, adapter_dir: str | os.PathLike[str], *, trainable: bool = False) -> Any:
-    """A saved Stage II adapter (LoRA + projector) on top of ``model``."""
+    """A saved Stage II adapter (LoRA + projector, and the new tokens' rows saved beside it) on top of ``model``."""
     from peft import PeftModel
 
     adapter_dir = Path(adapter_dir)
     if not (adapter_dir / "adapter_config.json").is_file():
         raise FileNotFoundError(f"{adapter_dir}: no adapter_config.json (save one with the Stage II model's "
                                 f"save_pretrained)")
+    load_token_rows(model.language_model, adapter_dir)  # adapters from before 2026-11-28 carry them in PEFT's file
     with _without_peft_deprecation_noise():
         return PeftModel.from_pretrained(model, adapter_dir, is_trainable=trainable)
 

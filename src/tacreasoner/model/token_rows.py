@@ -8,14 +8,22 @@ id, the ``rows`` table answers the new ones, and :func:`merge_token_rows` writes
 saved model is a plain LLM again.
 
 A tied LLM (SmolLM2, the tiny LLM) shares one ``rows`` table between input and output, as it shares the matrix.
+
+Stage II trains the rows the same way; its adapter folder (LoRA, PEFT's format) gets them in ``token_rows.safetensors``
+(:func:`save_token_rows`), which :func:`load_token_rows` writes into a Stage I model before the adapter goes on.
 """
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import torch
 from torch import nn
 
-__all__ = ["TokenRows", "merge_token_rows", "train_token_rows"]
+__all__ = ["ROWS_FILE", "TokenRows", "load_token_rows", "merge_token_rows", "save_token_rows", "train_token_rows"]
+
+ROWS_FILE = "token_rows.safetensors"
 
 
 class TokenRows(nn.Module):
@@ -53,7 +61,11 @@ class TokenRows(nn.Module):
             place = self.lookup[x]
             new = self.rows.to(out.dtype)[place.clamp(min=0)]
             return torch.where((place >= 0).unsqueeze(-1), new, out)
-        new = nn.functional.linear(x, self.rows.to(x.dtype),  # hidden → logits: recompute the new ids' columns
+        return self.with_new_columns(x, out)
+
+    def with_new_columns(self, x: torch.Tensor, out: torch.Tensor) -> torch.Tensor:
+        """The output layer's ``out = base(x)`` with the new ids' columns recomputed from ``rows``."""
+        new = nn.functional.linear(x, self.rows.to(x.dtype),
                                    None if self.base.bias is None else self.base.bias[self.ids])
         return out.index_copy(-1, self.ids, new.to(out.dtype))
 
@@ -96,3 +108,41 @@ def merge_token_rows(language_model: nn.Module) -> bool:
         language_model.set_input_embeddings(inputs.merged())
         found = True
     return found
+
+
+def save_token_rows(language_model: nn.Module, directory: str | os.PathLike[str]) -> bool:
+    """Write the trained rows (and their ids) to ``directory/token_rows.safetensors``; False if none are wrapped."""
+    from safetensors.torch import save_file
+
+    inputs, outputs = language_model.get_input_embeddings(), language_model.get_output_embeddings()
+    if not isinstance(inputs, TokenRows):
+        return False
+    tensors = {"ids": inputs.ids.detach().cpu(), "input_rows": inputs.rows.detach().cpu().contiguous()}
+    if isinstance(outputs, TokenRows) and outputs.rows is not inputs.rows:
+        tensors["output_rows"] = outputs.rows.detach().cpu().contiguous()
+    Path(directory).mkdir(parents=True, exist_ok=True)
+    save_file(tensors, str(Path(directory) / ROWS_FILE))
+    return True
+
+
+@torch.no_grad()
+def load_token_rows(language_model: nn.Module, directory: str | os.PathLike[str]) -> bool:
+    """Write rows saved by :func:`save_token_rows` into ``language_model``'s matrices; False if there is no file."""
+    from safetensors.torch import load_file
+
+    file = Path(directory) / ROWS_FILE
+    if not file.is_file():
+        return False
+    saved = load_file(str(file))
+    ids = saved["ids"].long()
+    targets = [(language_model.get_input_embeddings(), saved["input_rows"])]
+    outputs = language_model.get_output_embeddings()
+    if "output_rows" in saved:
+        targets.append((outputs, saved["output_rows"]))
+    for module, rows in targets:
+        weight = module.weight
+        if rows.shape != (len(ids), weight.shape[1]) or int(ids.max()) >= weight.shape[0]:
+            raise ValueError(f"{file}: rows of shape {tuple(rows.shape)} for ids up to {int(ids.max())} do not fit "
+                             f"an embedding of shape {tuple(weight.shape)} (saved for another LLM?)")
+        weight[ids.to(weight.device)] = rows.to(weight.device, weight.dtype)
+    return True

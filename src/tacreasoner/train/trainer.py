@@ -261,7 +261,6 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: ProgressBar, la
         enable_activation_checkpointing(model.language_model)
     trained = configure_stage(model, stage, config.lora)
     master_weights_in_fp32(trained, accelerator.mixed_precision)
-    refuse_what_fsdp_would_break(accelerator, trained, stage)
     base = model  # the TacReasonerForCausalLM inside (PEFT wraps it in Stage II)
 
     examples = load_examples(stage, config.data.bench, touchcot=config.data.touchcot,
@@ -465,28 +464,6 @@ def master_weights_in_fp32(trained: torch.nn.Module, mixed_precision: str) -> in
     return sum(p.numel() for p in low)
 
 
-def refuse_what_fsdp_would_break(accelerator: Any, trained: torch.nn.Module, stage: int) -> None:
-    """Stop before any work where FSDP2 would fail deep inside accelerate.
-
-    Found on an H100 and reproduced on the CPU (docs/training.md, "Configs"): in Stage II with tied embeddings PEFT
-    shares one trainable-token delta between input and output embeddings, which accelerate 1.15 (seeing no tie
-    through PEFT's wrappers) shards twice ("Invariant encountered: value was None"). Stage I's new rows are plain
-    parameters (``model.token_rows``) and shard like any other, tied or not.
-    """
-    plugin = getattr(accelerator.state, "fsdp_plugin", None)
-    if plugin is None or stage == 1:
-        return
-    inputs, outputs = trained.get_input_embeddings(), trained.get_output_embeddings()
-    if inputs is None or outputs is None or getattr(inputs, "weight", None) is getattr(outputs, "weight", None):
-        return
-    shared = {id(p) for p in inputs.parameters()} & {id(p) for p in outputs.parameters()}
-    if shared:
-        raise ValueError("this LLM ties its input and output embeddings, and PEFT's trainable new-token rows "
-                         "share one delta between them, which accelerate's FSDP2 shards twice: train Stage II "
-                         "of a tied-embedding LLM (SmolLM2; Qwen2.5 up to 3B) with DDP "
-                         "(configs/accelerate/ddp-2gpu.yaml) or DeepSpeed ZeRO-2; Qwen2.5-7B and 14B are untied")
-
-
 def _configure_deepspeed(accelerator: Any, settings: Any, micro_batch: int) -> None:
     """DeepSpeed reads the micro-batch size from a DataLoader, which this loop does not use: set it here.
 
@@ -518,7 +495,8 @@ def _save(trained: Any, processor: Any, stage: int, out: Path) -> None:
         merge_token_rows(trained.language_model)  # the new rows back into the matrices: a plain LLM on disk
         save_model(trained, processor, out / MODEL_DIR)
         return
-    save_model(trained, processor, out / ADAPTER_DIR)  # PEFT: writes the adapter (LoRA + projector) only
+    save_model(trained, processor, out / ADAPTER_DIR)  # the adapter (LoRA + projector) + the new tokens' rows
+    merge_token_rows(trained.get_base_model().language_model)
     merged = trained.merge_and_unload()
     save_model(merged, processor, out / MODEL_DIR)
 
