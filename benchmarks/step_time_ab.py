@@ -1,4 +1,4 @@
-"""Is a change faster, and does it train the same? The quickstart's steps under this tree and under a commit, alternated.
+"""Is a change faster, and does it train the same? The quickstart's steps, this tree against a commit, alternated.
 
 A code change that should only make training faster (same math) is checked here: short Stage I and Stage II runs
 of the quickstart's recipe, alternately with this working tree and with ``--base`` (a git worktree of that commit,
