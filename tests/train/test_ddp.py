@@ -20,7 +20,13 @@ from safetensors.torch import load_file
 
 from tacreasoner.train.trainer import train_stage
 from tests.train.ddp_worker import capture_trainable_weights
-from tests.train.trainsetup import COMPARATOR_FIT_STEPS, tiny_config, training_inputs
+from tests.train.trainsetup import (
+    COMPARATOR_FIT_STEPS,
+    llm_with_new_rows,
+    tiny_config,
+    training_inputs,
+    training_prompt_logits,
+)
 
 WORKER = Path(__file__).with_name("ddp_worker.py")
 TIMEOUT_S = 600  # a bound for hangs; a launch takes ~30 s alone, 300+ on 2 cores shared with other jobs
@@ -82,58 +88,15 @@ def test_the_defaults_prompt_dependent_parts_train_under_ddp_in_both_stages(inpu
     assert any("clip_reader" in n for n in rank0)  # Stage II trains the reader's level vectors
 
 
-def _llm_with_new_rows(inputs: dict[str, Path], directory: Path, *, untie: bool) -> Path:
-    """A tiny LLM whose tokenizer lacks the project's tokens, as a pretrained one (SmolLM2, Qwen2.5) does: building
-    the model adds the tactile token and the reasoning tags as new rows, so both stages also train them. ``untie``:
-    its output layer a copy of the input embeddings, as Qwen2.5-7B/14B have it; tied (SmolLM2, Qwen2.5 up to 3B),
-    one row table serves input and output and must be checkpointed once."""
-    import torch
-    from tokenizers import Tokenizer, decoders, models, pre_tokenizers, trainers
-    from transformers import PreTrainedTokenizerFast, Qwen2Config, Qwen2ForCausalLM
-
-    if not (directory / "config.json").is_file():
-        texts = [json.loads(line)["question"] + " " + json.loads(line)["output"]
-                 for line in inputs["touchcot"].read_text(encoding="utf-8").splitlines()]
-        bpe = Tokenizer(models.BPE())
-        bpe.pre_tokenizer = pre_tokenizers.ByteLevel(add_prefix_space=False)
-        bpe.decoder = decoders.ByteLevel()
-        bpe.train_from_iterator(texts * 2, trainers.BpeTrainer(
-            vocab_size=600, special_tokens=["<|endoftext|>", "<|im_start|>", "<|im_end|>"], show_progress=False,
-            initial_alphabet=pre_tokenizers.ByteLevel.alphabet()))
-        tokenizer = PreTrainedTokenizerFast(tokenizer_object=bpe, eos_token="<|im_end|>", pad_token="<|endoftext|>")
-        config = Qwen2Config(vocab_size=len(tokenizer), hidden_size=64, num_hidden_layers=2, num_attention_heads=4,
-                             num_key_value_heads=2, intermediate_size=128, max_position_embeddings=1024,
-                             tie_word_embeddings=not untie, eos_token_id=tokenizer.eos_token_id,
-                             pad_token_id=tokenizer.pad_token_id)
-        torch.manual_seed(0)
-        Qwen2ForCausalLM(config).save_pretrained(directory)
-        tokenizer.save_pretrained(directory)
-    return directory
-
-
 def _final_trainable(run: Path, stage: int) -> dict[str, torch.Tensor]:
     """The trainable weights the trainer checkpointed at the last step (gathered whole by every engine)."""
     return load_file(str(sorted((run / f"stage{stage}" / "checkpoints").glob("step-*"))[-1] / "model.safetensors"))
 
 
-def _logits(model: Any, processor: Any, inputs: dict[str, Path]) -> torch.Tensor:
-    """A model's logits on the first training prompts (with their videos)."""
-    from tacreasoner.train.data import VideoBank, collate, load_examples, tokenize_examples
-
-    examples = load_examples(2, inputs["bench"], stage2_data="plain")[:3]
-    tokenized, _ = tokenize_examples(processor, examples, 1024)
-    bank = VideoBank(processor.video_config, processor.sensor_types)
-    bank.build([k for e in tokenized for k in e.videos])
-    batch = collate(processor, tokenized, bank, None)
-    batch.pop("labels", None)
-    with torch.no_grad():
-        return model.eval()(**batch).logits
-
-
 def _saved_logits(model_dir: Path, inputs: dict[str, Path]) -> torch.Tensor:
     from tacreasoner.model.build import load_model
 
-    return _logits(*load_model(model_dir), inputs)
+    return training_prompt_logits(*load_model(model_dir), inputs)
 
 
 @contextmanager
@@ -145,7 +108,7 @@ def _in_memory_logits(inputs: dict[str, Path]) -> Iterator[list[torch.Tensor]]:
     save = trainer._save
 
     def logits_then_save(trained: Any, processor: Any, *args: Any) -> None:
-        found.append(_logits(trained, processor, inputs))
+        found.append(training_prompt_logits(trained, processor, inputs))
         save(trained, processor, *args)
 
     trainer._save = logits_then_save
@@ -186,7 +149,7 @@ def test_a_killed_two_process_run_resumes_to_the_one_process_result_and_saves_a_
     the loss is normalised by the global number of answer tokens."""
     steps = 4
     # FSDP: Stage I untied (as Qwen2.5-7B), Stage II tied (as SmolLM2; refused until its rows were PEFT's, 2026-11-28)
-    llm = _llm_with_new_rows(inputs, tmp_path / "llm", untie=(engine, stage) == ("fsdp", 1))
+    llm = llm_with_new_rows(inputs, tmp_path / "llm", untie=(engine, stage) == ("fsdp", 1))
     other = 2 if stage == 1 else 1
     runs = {}
     for name, batch in (("two", {"global_batch": 4}), ("one", {"batch_size": 4})):

@@ -52,6 +52,31 @@ def test_two_stages_write_models_adapter_logs_and_run_reports(two_stage_run: Pat
     assert stage1["trainable_parameters"] != stage2["trainable_parameters"]
 
 
+def test_the_stage_two_adapter_on_the_stage_one_model_answers_as_the_merged_model(inputs, tmp_path) -> None:
+    """The adapter folder is complete: LoRA + projector (PEFT's file) and, beside it, the new tokens' rows, which
+    Stage II trains too: on an LLM that lacks the project's tokens, the Stage I model plus the adapter answers as the
+    merged Stage II model, and not as it would without the rows."""
+    from tacreasoner.evaluate.predict import load_trained
+    from tests.train.trainsetup import llm_with_new_rows, training_prompt_logits
+
+    llm = llm_with_new_rows(inputs, tmp_path / "llm", untie=False)
+    config = tiny_config(inputs, tmp_path / "run", model={"llm": str(llm)}, stage1={"steps": 2},
+                         stage2={"steps": 3, "lr": 3e-2, "projector_lr": 3e-2}, lora={"r": 4, "alpha": 8},
+                         runtime={"log_with": "none", "progress": False, "mixed_precision": "no"})
+    train_stage(config, 1)
+    train_stage(config, 2)
+    run = tmp_path / "run"
+    adapter = run / "stage2" / "adapter"
+    merged, processor = load_trained(run / "stage2" / "model", device="cpu")
+    on_top, _ = load_trained(run / "stage1" / "model", adapter, device="cpu")
+    assert merged.config.new_token_ids and (adapter / "token_rows.safetensors").is_file()
+    expected = training_prompt_logits(merged, processor, inputs)
+    torch.testing.assert_close(training_prompt_logits(on_top, processor, inputs), expected, rtol=1e-4, atol=1e-4)
+    (adapter / "token_rows.safetensors").unlink()
+    without_rows, _ = load_trained(run / "stage1" / "model", adapter, device="cpu")
+    assert not torch.allclose(training_prompt_logits(without_rows, processor, inputs), expected, atol=1e-4)
+
+
 def test_stage_two_changes_what_stage_one_produced(two_stage_run: Path) -> None:
     from tacreasoner.model.build import load_model
 

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+import torch
 
 from tacreasoner.train.config import TrainConfig
 from tests.shared import built_once
@@ -93,3 +94,46 @@ def fewer_comparator_fit_steps(steps: int = COMPARATOR_FIT_STEPS) -> Callable[[]
         cross_video.FIT_STEPS = before
 
     return undo
+
+
+def llm_with_new_rows(inputs: dict[str, Path], directory: Path, *, untie: bool) -> Path:
+    """A tiny LLM whose tokenizer lacks the project's tokens, as a pretrained one (SmolLM2, Qwen2.5) does: building
+    the model adds the tactile token and the reasoning tags as new rows, so both stages also train them. ``untie``:
+    its output layer a copy of the input embeddings, as Qwen2.5-7B/14B have it; tied (SmolLM2, Qwen2.5 up to 3B),
+    one row table serves input and output and must be checkpointed once."""
+    import torch
+    from tokenizers import Tokenizer, decoders, models, pre_tokenizers, trainers
+    from transformers import PreTrainedTokenizerFast, Qwen2Config, Qwen2ForCausalLM
+
+    if not (directory / "config.json").is_file():
+        texts = [json.loads(line)["question"] + " " + json.loads(line)["output"]
+                 for line in inputs["touchcot"].read_text(encoding="utf-8").splitlines()]
+        bpe = Tokenizer(models.BPE())
+        bpe.pre_tokenizer = pre_tokenizers.ByteLevel(add_prefix_space=False)
+        bpe.decoder = decoders.ByteLevel()
+        bpe.train_from_iterator(texts * 2, trainers.BpeTrainer(
+            vocab_size=600, special_tokens=["<|endoftext|>", "<|im_start|>", "<|im_end|>"], show_progress=False,
+            initial_alphabet=pre_tokenizers.ByteLevel.alphabet()))
+        tokenizer = PreTrainedTokenizerFast(tokenizer_object=bpe, eos_token="<|im_end|>", pad_token="<|endoftext|>")
+        config = Qwen2Config(vocab_size=len(tokenizer), hidden_size=64, num_hidden_layers=2, num_attention_heads=4,
+                             num_key_value_heads=2, intermediate_size=128, max_position_embeddings=1024,
+                             tie_word_embeddings=not untie, eos_token_id=tokenizer.eos_token_id,
+                             pad_token_id=tokenizer.pad_token_id)
+        torch.manual_seed(0)
+        Qwen2ForCausalLM(config).save_pretrained(directory)
+        tokenizer.save_pretrained(directory)
+    return directory
+
+
+def training_prompt_logits(model: Any, processor: Any, inputs: dict[str, Path]) -> torch.Tensor:
+    """A model's logits on the first training prompts (with their videos)."""
+    from tacreasoner.train.data import VideoBank, collate, load_examples, tokenize_examples
+
+    examples = load_examples(2, inputs["bench"], stage2_data="plain")[:3]
+    tokenized, _ = tokenize_examples(processor, examples, 1024)
+    bank = VideoBank(processor.video_config, processor.sensor_types)
+    bank.build([k for e in tokenized for k in e.videos])
+    batch = collate(processor, tokenized, bank, None)
+    batch.pop("labels", None)
+    with torch.no_grad():
+        return model.eval()(**batch).logits
