@@ -8,6 +8,7 @@ import math
 import os
 import platform
 import shlex
+import shutil
 import sys
 from pathlib import Path
 
@@ -85,3 +86,23 @@ def pct(x: float | None) -> str:
 def pm(mean: float, std: float | None) -> str:
     """mean ± std in %, the mean alone where one seed leaves no spread."""
     return pct(mean) if std is None or math.isnan(std) else f"{pct(mean)} ± {pct(std)}"
+
+
+def quickstart_stage_config(run: Path, stage: int, steps: int, output_dir: Path):
+    """The quickstart's seed-0 training config for ``steps`` steps of ``stage`` into ``output_dir``, quiet (no logger,
+    bar or checkpoints; a log record every step); Stage II starts from ``run``'s own Stage I model, copied in. For
+    the scripts that time training steps of a finished quickstart run folder."""
+    from tacreasoner.recipes.quickstart import QuickstartPaths, quickstart_config
+
+    paths = QuickstartPaths(run)
+    config = quickstart_config(paths, 0, overrides={"output_dir": str(output_dir)})
+    config.runtime.log_with, config.runtime.progress = "none", False
+    config.runtime.log_every, config.runtime.checkpoint_every = 1, 10**9
+    config.stage(stage).steps = steps
+    if stage == 2:
+        stage1, target = paths.train(0) / "stage1", config.stage_dir(1)
+        target.mkdir(parents=True, exist_ok=True)
+        shutil.copytree(stage1 / "model", target / "model")
+        for name in ("run.json", "train_log.jsonl"):
+            shutil.copy(stage1 / name, target / name)
+    return config

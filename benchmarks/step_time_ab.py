@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shutil
 import statistics
 import subprocess
 import sys
@@ -26,7 +25,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, md_table, publish, stamp
+from _common import header_md, md_table, publish, quickstart_stage_config, stamp
 
 SKIP = 3
 """Steps not counted in a run's median (warm-up)."""
@@ -35,27 +34,16 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def worker(run: Path, stage: int, steps: int, fp32: bool, out: Path) -> None:
     """One short training run of ``stage`` with whichever ``tacreasoner`` is importable; times and losses → ``out``."""
-    from tacreasoner.recipes.quickstart import QuickstartPaths, quickstart_config
     from tacreasoner.train.trainer import train_stage
 
-    paths = QuickstartPaths(run)
     with tempfile.TemporaryDirectory() as tmp:
-        config = quickstart_config(paths, 0, overrides={"output_dir": str(Path(tmp) / "run")})
-        config.runtime.log_with, config.runtime.progress = "none", False
-        config.runtime.log_every, config.runtime.checkpoint_every = 1, 10**9
+        config = quickstart_stage_config(run, stage, steps, Path(tmp) / "run")
         config.runtime.threads = 2
         if fp32:
             config.runtime.mixed_precision = "no"
-        config.stage(stage).steps = steps
-        if stage == 2:  # on the quickstart's own Stage I model
-            target = config.stage_dir(1)
-            target.mkdir(parents=True)
-            shutil.copytree(paths.train(0) / "stage1" / "model", target / "model")
-            for name in ("run.json", "train_log.jsonl"):
-                shutil.copy(paths.train(0) / "stage1" / name, target / name)
         times: list[float] = []
         losses: list[float] = []
-        last = [time.perf_counter()]
+        last = [0.0]
 
         def on_log(rec: dict) -> None:
             now = time.perf_counter()

@@ -24,7 +24,6 @@ The first 5 steps (warm-up) are not counted. Results: benchmarks/results/train_s
 from __future__ import annotations
 
 import argparse
-import shutil
 import statistics
 import sys
 import tempfile
@@ -32,7 +31,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, md_table, publish, stamp
+from _common import header_md, md_table, publish, quickstart_stage_config, stamp
 
 _BASE = {"attention": "sdpa", "loss_only": True, "cpu_dropout": True, "pack": True}
 VARIANTS = {
@@ -110,22 +109,10 @@ class Switch:
 
 
 def run_stage(run: Path, stage: int, steps: int, work: Path) -> dict[str, list[float]]:
-    from tacreasoner.recipes.quickstart import QuickstartPaths, quickstart_config
     from tacreasoner.train.trainer import train_stage
 
-    paths = QuickstartPaths(run)
-    config = quickstart_config(paths, 0, overrides={"output_dir": str(work / f"stage{stage}_run")})
-    config.runtime.log_with, config.runtime.progress = "none", False
-    config.runtime.log_every, config.runtime.checkpoint_every = 1, 10**9
+    config = quickstart_stage_config(run, stage, steps, work / f"stage{stage}_run")
     config.runtime.pack_sequences = True  # the trainer asks for packing; each variant decides
-    config.stage(stage).steps = steps
-    if stage == 2:
-        stage1 = paths.train(0) / "stage1"
-        target = config.stage_dir(1)
-        target.mkdir(parents=True, exist_ok=True)
-        shutil.copytree(stage1 / "model", target / "model")
-        for name in ("run.json", "train_log.jsonl"):
-            shutil.copy(stage1 / name, target / name)
     switch = Switch(stage)  # step 1 runs the trainer's own settings: it is inside the warm-up
     try:
         train_stage(config, stage, on_log=switch.on_log(stage))

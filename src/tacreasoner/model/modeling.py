@@ -344,7 +344,8 @@ class TacReasonerForCausalLM(TacReasonerPreTrainedModel):
 
     def _head(self, hidden: torch.Tensor) -> torch.Tensor:
         """The LM head. Under CPU autocast a frozen output matrix is cast once and kept (re-cast when it changes)
-        rather than at every step: the same logits, 20-80 ms less a step for SmolLM2's 49k x 576 matrix."""
+        rather than at every step: the same logits, without a 49k x 576 copy per step for SmolLM2 (20-80 ms in
+        profiles; benchmarks/results/step_time_ab.md)."""
         head = self.language_model.get_output_embeddings()
         base = head.base if isinstance(head, TokenRows) else head
         device = hidden.device.type

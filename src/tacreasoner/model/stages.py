@@ -58,8 +58,8 @@ class LoraSettings:
 
     def peft_config(self) -> Any:
         """LoRA on the LM's projections + the projector. The new tokens' rows are not PEFT's trainable tokens:
-        those rebuild the whole 49k-row matrix (and its gradient) every step, a sixth of a CPU step
-        (benchmarks/results/train_speed.md); :func:`configure_stage` gives them row tables instead."""
+        those rebuild the whole 49k-row matrix (and its gradient) every step; :func:`configure_stage` gives them row
+        tables instead (a quickstart Stage II step 9% faster: benchmarks/results/step_time_ab.md)."""
         from peft import LoraConfig
 
         names = "|".join(self.target_modules)

@@ -271,7 +271,7 @@ def _part(name: str, stage: int, lora: LoraSettings) -> str:
     """Which part of the model a trainable parameter belongs to, in words."""
     if "lora_" in name:
         return f"LoRA r {lora.r} on {'/'.join(lora.target_modules)}"
-    if "trainable_tokens" in name or name.endswith(".rows"):
+    if name.endswith(".rows"):
         return "new token rows"
     if "embed_tokens" in name or "lm_head" in name or "wte" in name:
         return "embeddings"
