@@ -11,7 +11,8 @@
 #   EXTRA  more settings for every training, e.g. EXTRA="--set data.paraphrases=false --set runtime.threads=2"
 #          (the recipe before data.paraphrases shipped; threads fixed instead of read from the load at each start)
 # Variants: rec (the shipped config), no_dyn (use_temporal=false), no_qcond (question_conditioning=false), cot
-# (Stage II on TouchCoT from rec's Stage I of the seed, built once with the offline rules teacher); and a recipe
+# (Stage II on TouchCoT from rec's Stage I of the seed, built once with the offline rules teacher), no_stage1
+# (stage1.skip=true: Stage II from the untrained projector), no_stage2 (rec's Stage I model answers); and a recipe
 # candidate, not a paper ablation: para (data.paraphrases=true: each train item also asked in a training wording),
 # and para_osc (para with OSC's examples twice: OSC has no training wording, so para halves its share of Stage II).
 # rec:0 is the quickstart's own seed-0 model when Q holds it (train/seed0 and eval_val/: linked, not retrained).
@@ -31,7 +32,8 @@ declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
                  [no_qcond]="--set model.encoder.question_conditioning=false"
                  [para]="--set data.paraphrases=true"
                  [para_osc]="--set data.paraphrases=true --set data.repeat={\"OSC\":2}"
-                 [cot]="--set data.stage2_data=touchcot --set data.touchcot=$OUT/touchcot/touchcot/touchcot_train.jsonl")
+                 [cot]="--set data.stage2_data=touchcot --set data.touchcot=$OUT/touchcot/touchcot/touchcot_train.jsonl"
+                 [no_stage1]="--set stage1.skip=true" [no_stage2]="")
 # Stage II from another variant's Stage I of the seed: cot (its Stage I is the recipe's), para_osc (Stage I has no OSC
 # item, so repeating OSC changes Stage II only)
 declare -A STAGE1_FROM=([cot]=rec [para_osc]=para)
@@ -53,8 +55,8 @@ train() {  # train VARIANT SEED STAGE
     touch "$dir/stage$st/run.done"  # (set -e does not act inside a function called from an && list: hence the ||)
 }
 
-score() {  # score VARIANT SEED MAX_NEW_TOKENS: val, and with HELDOUT=1 val in held-out wordings
-    local v=$1 s=$2 bench=$Q/bench out="$OUT/eval/$1.seed$2/val"
+score() {  # score VARIANT SEED MAX_NEW_TOKENS [MODEL]: val, and with HELDOUT=1 val in held-out wordings
+    local v=$1 s=$2 bench=$Q/bench out="$OUT/eval/$1.seed$2/val" model=${4:-$OUT/runs/$1.seed$2/stage2/model}
     for wording in benchmark ${HELDOUT:+heldout}; do
         if [ "$wording" = heldout ]; then
             bench=$OUT/bench_heldout out=$out"_heldout"
@@ -64,7 +66,7 @@ score() {  # score VARIANT SEED MAX_NEW_TOKENS: val, and with HELDOUT=1 val in h
         [ -e "$out/report.json" ] && continue
         say "$v seed $s: answering val ($wording wordings)"
         # shellcheck disable=SC2086
-        $TR evaluate --model "$OUT/runs/$v.seed$s/stage2/model" --bench "$bench" --split val --out "$out" \
+        $TR evaluate --model "$model" --bench "$bench" --split val --out "$out" \
             --batch-size 48 --max-new-tokens "$3" --video-cache "$Q/video_cache" $LIMIT \
             >> "$OUT/logs/$v.seed$s.eval.log" 2>&1 || { say "FAILED: $OUT/logs/$v.seed$s.eval.log"; return 1; }
     done
@@ -94,7 +96,11 @@ for job in "${JOBS[@]}"; do
     v=${job%:*} s=${job#*:}
     [[ -v "SETS[$v]" && $s =~ ^[0-9]+$ ]] || { echo "error: JOBS entry '$job': expected VARIANT:SEED with VARIANT" \
         "one of ${!SETS[*]}" >&2; exit 2; }
-    if [ -n "${STAGE1_FROM[$v]:-}" ]; then  # Stage II only, from the Stage I of another variant with the same seed
+    if [ "$v" = no_stage2 ]; then  # no training: the recipe's Stage I model of the seed answers
+        train rec "$s" 1 && score "$v" "$s" 64 "$OUT/runs/rec.seed$s/stage1/model" || exit 1
+    elif [ "$v" = no_stage1 ]; then
+        train "$v" "$s" 2 && score "$v" "$s" 64 || exit 1
+    elif [ -n "${STAGE1_FROM[$v]:-}" ]; then  # Stage II only, from the Stage I of another variant with the same seed
         base=${STAGE1_FROM[$v]}
         train "$base" "$s" 1 || exit 1
         [ "$v" = cot ] && { touchcot || exit 1; }
