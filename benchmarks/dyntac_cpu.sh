@@ -14,7 +14,8 @@
 # (Stage II on TouchCoT from rec's Stage I of the seed, built once with the offline rules teacher), no_stage1
 # (stage1.skip=true: Stage II from the untrained projector), no_stage2 (rec's Stage I model answers); and a recipe
 # candidate, not a paper ablation: para (data.paraphrases=true: each train item also asked in a training wording),
-# and para_osc (para with OSC's examples twice: OSC has no training wording, so para halves its share of Stage II).
+# and para_osc (para with OSC's examples twice: OSC has no training wording, so para halves its share of Stage II);
+# and a quickstart budget candidate, b4 (batch 4 instead of 8 in both stages: as many updates, half the tokens).
 # rec:0 is the quickstart's own seed-0 model when Q holds it (train/seed0 and eval_val/: linked, not retrained).
 # Resumable: a finished stage is marked run.done, training resumes from its last checkpoint, a scored split is
 # skipped. Measured on a 2-core AMD EPYC with AVX512_BF16 (bf16): ~30 min of training and ~3 min of answering a chain.
@@ -33,7 +34,8 @@ declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
                  [para]="--set data.paraphrases=true"
                  [para_osc]="--set data.paraphrases=true --set data.repeat={\"OSC\":2}"
                  [cot]="--set data.stage2_data=touchcot --set data.touchcot=$OUT/touchcot/touchcot/touchcot_train.jsonl"
-                 [no_stage1]="--set stage1.skip=true" [no_stage2]="")
+                 [no_stage1]="--set stage1.skip=true" [no_stage2]=""
+                 [b4]="--set stage1.batch_size=4 --set stage2.batch_size=4")
 # Stage II from another variant's Stage I of the seed: cot (its Stage I is the recipe's), para_osc (Stage I has no OSC
 # item, so repeating OSC changes Stage II only)
 declare -A STAGE1_FROM=([cot]=rec [para_osc]=para)
