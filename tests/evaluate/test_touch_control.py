@@ -293,6 +293,9 @@ def test_evaluate_touch_flag_keeps_the_modes_side_by_side(model_dir: Path, bench
     result = runner.invoke(app, [*base, "--touch", "nothing"])
     assert result.exit_code == 2
     assert "touch must be one of real, blank, shuffled; got 'nothing'" in result.output
+    result = runner.invoke(app, [*base, "--dtype", "half"])
+    assert result.exit_code == 2
+    assert "dtype must be one of float32, bfloat16; got 'half'" in result.output
 
 
 def test_evaluate_video_cache_is_filled_once_and_answers_as_without_it(model_dir: Path, bench: Path,
@@ -462,4 +465,23 @@ def test_a_finished_predictions_file_is_not_answered_again_and_loads_no_model(mo
     predict.answer_with_model(model_dir, bench, info, items[:2], path, max_new_tokens=2)
     assert path.read_text() == before
     with pytest.raises(AssertionError, match="the model was loaded"):
+        predict.answer_with_model(model_dir, bench, info, items[:3], path, max_new_tokens=2)
+
+
+def test_answering_in_bfloat16_casts_the_weights_and_is_recorded_so_a_float32_resume_does_not_mix(
+        model_dir: Path, bench: Path, tmp_path: Path) -> None:
+    """--dtype bfloat16 answers with bf16 weights; its lines name the type, so float32 answers never join that file."""
+    from tacreasoner.evaluate import predict
+
+    model, _ = predict.load_trained(model_dir, device="cpu", dtype="bfloat16")
+    assert {p.dtype for p in model.parameters()} == {torch.bfloat16}
+    with pytest.raises(ValueError, match=r"dtype must be one of float32, bfloat16; got 'fp16'"):
+        predict.load_trained(model_dir, device="cpu", dtype="fp16")
+    info, items = load_bench(bench, "test")
+    path = tmp_path / "seed0.jsonl"
+    predict.answer_with_model(model_dir, bench, info, items[:2], path, max_new_tokens=2, dtype="bfloat16")
+    lines = [json.loads(line) for line in path.read_text().splitlines()]
+    assert len(lines) == 2 and all("dtype=bfloat16" in line["answered_by"] for line in lines)
+    assert predict.answerer_id(model_dir, bench, "float32") == predict.answerer_id(model_dir, bench)
+    with pytest.raises(ValueError, match=r"this run is .*; write them to another --out"):
         predict.answer_with_model(model_dir, bench, info, items[:3], path, max_new_tokens=2)

@@ -83,7 +83,8 @@ def retrieval_bench_cmd(
 @cli_errors
 def evaluate_cmd(
     model: Annotated[Path, typer.Option("--model", help="Trained model directory (e.g. runs/train/stage2/model); "
-                                                        "repeat for several seeds.")],
+                                                        "one per run (`tacreasoner score` combines seeds' "
+                                                        "predictions).")],
     bench: Bench,
     out: Annotated[Path, typer.Option("--out", help="Report directory (predictions/, report.md, plots).")],
     split: Split = "test",
@@ -97,16 +98,21 @@ def evaluate_cmd(
                                                        "report in touch_<touch>/.")] = "real",
     touch_seed: Annotated[int, typer.Option("--touch-seed", help="Seed of the shuffled videos.")] = 0,
     video_cache: VideoCache = None,
+    dtype: Annotated[str, typer.Option("--dtype", help="Weights' type when answering: float32 (as trained) or "
+                                                       "bfloat16 (faster on a CPU with native bf16; replies "
+                                                       "differ by rounding).")] = "float32",
 ) -> None:
     """Answer a benchmark split with a trained model and score it (Wilson CIs; resumable predictions)."""
     needs_train_extra("evaluate")
     at_least_one("--batch-size", batch_size)
-    from tacreasoner.evaluate.predict import check_touch, predict_split
+    from tacreasoner.evaluate.predict import check_dtype, check_touch, predict_split
     from tacreasoner.evaluate.report import evaluate
 
     check_touch(touch)  # before the model loads: a typo fails at once
+    check_dtype(dtype)
     items, preds = predict_split(model, bench, split, out, batch_size=batch_size, max_new_tokens=max_new_tokens,
-                                 limit=limit, touch=touch, touch_seed=touch_seed, video_cache=video_cache)
+                                 limit=limit, touch=touch, touch_seed=touch_seed, video_cache=video_cache,
+                                 dtype=dtype)
     report_dir = out if touch == "real" else out / f"touch_{touch}"
     report = evaluate(items, [preds], mode, report_dir)
     console.print(report.to_markdown())

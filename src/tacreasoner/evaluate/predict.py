@@ -24,36 +24,54 @@ import torch
 
 from tacreasoner.tasks.schema import QAItem
 
-__all__ = ["TOUCH_MODES", "answer_with_model", "answerer_id", "blank_video", "check_touch", "load_trained",
-           "predict_items", "predict_split", "predictions_path", "set_aside_stale", "shuffle_videos"]
+__all__ = ["ANSWER_DTYPES", "TOUCH_MODES", "answer_with_model", "answerer_id", "blank_video", "check_dtype",
+           "check_touch", "load_trained", "predict_items", "predict_split", "predictions_path", "set_aside_stale",
+           "shuffle_videos"]
 
 TOUCH_MODES = ("real", "blank", "shuffled")
 """What the model gets as touch: the item's own videos, a featureless clip, or other items' videos."""
 
 VideoKey = tuple[str, int | None, int | None]
+ANSWER_DTYPES = {"float32": torch.float32, "bfloat16": torch.bfloat16}
+"""Weights' type when answering. bfloat16 halves the memory read per token; its replies differ from float32's by
+rounding (the quickstart model on DynTAC-Sim val: 713 of 780 identical, accuracy n.s.,
+experiments/2026-11-28_quickstart_b4)."""
+
+
+def check_dtype(dtype: str | None) -> str | None:
+    """``dtype`` if it is a known answering type (None: as saved, float32); a ValueError naming them otherwise."""
+    if dtype is not None and dtype not in ANSWER_DTYPES:
+        raise ValueError(f"dtype must be one of {', '.join(ANSWER_DTYPES)}; got {dtype!r}")
+    return dtype
 
 
 def load_trained(model_dir: str | os.PathLike[str], adapter: str | os.PathLike[str] | None = None,
-                 device: str | None = None) -> tuple[Any, Any]:
-    """A saved model + processor (``train`` output ``stage*/model``), optionally with a Stage II adapter on top."""
+                 device: str | None = None, dtype: str | None = None) -> tuple[Any, Any]:
+    """A saved model + processor (``train`` output ``stage*/model``), optionally with a Stage II adapter on top;
+    ``dtype`` (:data:`ANSWER_DTYPES`) casts its weights for answering."""
     from tacreasoner.model.build import load_model
     from tacreasoner.model.stages import load_adapter
 
+    check_dtype(dtype)
     model, processor = load_model(model_dir)
     if adapter is not None:
         model = load_adapter(model, adapter)
     device = device or ("cuda" if torch.cuda.is_available() else "cpu")
-    return model.to(device).eval(), processor
+    model = model.to(device)
+    if dtype is not None:
+        model = model.to(ANSWER_DTYPES[dtype])
+    return model.eval(), processor
 
 
-def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[str]) -> str:
-    """Who answers what, as recorded on each prediction line: the model folder (path, weights' size and time) and the
-    benchmark folder. Item ids repeat across models and benchmark variants, so a resumed file must be checked
-    against it rather than mix two runs' answers."""
+def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[str], dtype: str | None = None) -> str:
+    """Who answers what, as recorded on each prediction line: the model folder (path, weights' size and time), the
+    benchmark folder and the answering type where it is not float32. Item ids repeat across models and benchmark
+    variants, so a resumed file must be checked against it rather than mix two runs' answers."""
     model = Path(model_dir).resolve()
     weights = sorted(model.glob("*.safetensors"))
     stamp = ",".join(f"{w.stat().st_size}@{w.stat().st_mtime_ns // 10**9}" for w in weights)
-    return f"model={model} [{stamp}]; bench={Path(bench_dir).resolve()}{_bench_version(Path(bench_dir))}"
+    cast = f"; dtype={dtype}" if dtype not in (None, "float32") else ""
+    return f"model={model} [{stamp}]; bench={Path(bench_dir).resolve()}{_bench_version(Path(bench_dir))}{cast}"
 
 
 def _bench_version(bench_dir: Path) -> str:
@@ -302,16 +320,17 @@ def _key_name(key: VideoKey, root: Path) -> str:
 
 def answer_with_model(model_dir: Path, bench: Path, info: Any, items: Sequence[QAItem], path: Path, *,
                       batch_size: int = 32, max_new_tokens: int = 256, touch: str = "real", touch_seed: int = 0,
-                      video_cache: Path | None = None, progress: Callable[[int, int], None] | None = None) -> Path:
+                      video_cache: Path | None = None, progress: Callable[[int, int], None] | None = None,
+                      dtype: str | None = None) -> Path:
     """Answer ``items`` of the benchmark ``bench`` (``info``: its ``bench.json``) with the saved model in
-    ``model_dir`` into ``path``, resuming it. The model is loaded only when an item is left to answer, so a finished
-    file costs no model load (a re-run quickstart, a resumed evaluation)."""
+    ``model_dir`` (its weights cast to ``dtype``) into ``path``, resuming it. The model is loaded only when an item
+    is left to answer, so a finished file costs no model load (a re-run quickstart, a resumed evaluation)."""
     from tacreasoner.train.data import bench_video_root
 
-    who = answerer_id(model_dir, bench)
+    who = answerer_id(model_dir, bench, dtype)
     if {item.id for item in items} <= _done_ids(path, touch, touch_seed, who):
         return path
-    model, processor = load_trained(model_dir)
+    model, processor = load_trained(model_dir, dtype=dtype)
     return predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
                          max_new_tokens=max_new_tokens, progress=progress, touch=touch, touch_seed=touch_seed,
                          answered_by=who, video_cache=video_cache)
@@ -319,10 +338,11 @@ def answer_with_model(model_dir: Path, bench: Path, info: Any, items: Sequence[Q
 
 def predict_split(model_dir: Path, bench: Path, split: str, out: Path, *, batch_size: int = 32,
                   max_new_tokens: int = 256, limit: int | None = None, touch: str = "real", touch_seed: int = 0,
-                  video_cache: Path | None = None) -> tuple[list[QAItem], Path]:
+                  video_cache: Path | None = None, dtype: str | None = None) -> tuple[list[QAItem], Path]:
     """Answer one split of a benchmark with a saved model into ``out``'s predictions file (resuming it), with a
     progress display; returns the items asked and the predictions path. ``video_cache``: a preprocessed-video
-    folder to read and fill (a training run's), so that models answering the same clips decode them once."""
+    folder to read and fill (a training run's), so that models answering the same clips decode them once.
+    ``dtype``: the weights' type when answering (:data:`ANSWER_DTYPES`)."""
     from tacreasoner.progress import ClipProgress
     from tacreasoner.tasks.bench import load_bench
 
@@ -334,5 +354,5 @@ def predict_split(model_dir: Path, bench: Path, split: str, out: Path, *, batch_
     label = split if touch == "real" else f"{split} ({touch} touch)"
     with ClipProgress(f"answering {label}", "items") as bar:
         answer_with_model(model_dir, bench, info, items, path, batch_size=batch_size, max_new_tokens=max_new_tokens,
-                          touch=touch, touch_seed=touch_seed, video_cache=video_cache, progress=bar)
+                          touch=touch, touch_seed=touch_seed, video_cache=video_cache, progress=bar, dtype=dtype)
     return items, path
