@@ -74,6 +74,8 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3, help="Runs per tree and stage, alternated.")
     ap.add_argument("--stages", default="1,2", help="Which stages, comma-separated.")
     ap.add_argument("--fp32", action="store_true", help="Train in float32 (to compare the math without bf16).")
+    ap.add_argument("--name", help="Result name under benchmarks/results/ (default step_time_ab, or _fp32).")
+    ap.add_argument("--notes", default="", help="A paragraph for the result file: what the change is.")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--stage", type=int, help=argparse.SUPPRESS)
     ap.add_argument("--out", type=Path, help=argparse.SUPPRESS)
@@ -126,7 +128,7 @@ def main() -> None:
                              results["stages"][str(stage)]["first_diff_step"] or "none"])
         finally:
             subprocess.run(["git", "worktree", "remove", "--force", str(worktree)], cwd=ROOT, check=False)
-    name = "step_time_ab_fp32" if args.fp32 else "step_time_ab"
+    name = args.name or ("step_time_ab_fp32" if args.fp32 else "step_time_ab")
     md = header_md(f"Training step time: {this} against {base_rev}, alternated", info)
     md += (f"Run folder: `{args.run}` (the quickstart's data, LLM, encoder and Stage I model); the quickstart's recipe "
            f"({'float32' if args.fp32 else 'mixed precision as configured'}), {args.steps} steps a run, "
@@ -134,6 +136,8 @@ def main() -> None:
            f"step after the first {SKIP}. Ratio: mean of this tree's medians over the base's (below 1: faster); "
            "paired: per round. Loss: the largest difference between the two trees' logged losses, step by step "
            "(the first round of each), and the first step where they differ.\n\n")
+    if args.notes:
+        md += args.notes + "\n\n"
     md += md_table(["stage", f"{base_rev} s/step (per run)", "this s/step (per run)", "ratio", "paired",
                     "max loss diff", "first differing step"], rows)
     publish(name, {**info, **results}, md)

@@ -104,3 +104,15 @@ def test_timings_count_preparing_done_before_the_call(engine: TactileEngine, cli
         assert t["total_s"] == pytest.approx(t["prepare_s"] + t["decode_s"], abs=2e-4)
     with pytest.raises(RequestError, match="max_tokens must be at least 1, got 0"):
         Sampling(max_new_tokens=0)
+
+
+def test_a_bfloat16_engine_answers_with_bf16_weights(served_model: Path, clip_files: list[Path]) -> None:
+    """`--dtype bfloat16` (ask, serve, demo): the weights are cast, the clip still goes through, a whole reply comes."""
+    import torch
+
+    engine = TactileEngine.load(served_model, device="cpu", dtype="bfloat16")
+    assert {p.dtype for p in engine.model.parameters()} == {torch.bfloat16}
+    reply = engine.complete(Prompt.ask(ONE, [clip_files[0]]), Sampling(max_new_tokens=40))
+    assert reply.finish_reason == "stop" and reply.reasoning and reply.content
+    with pytest.raises(ValueError, match="dtype must be one of"):
+        TactileEngine.load(served_model, device="cpu", dtype="float16")

@@ -216,15 +216,16 @@ class TactileEngine:
 
     @classmethod
     def load(cls, model_dir: str | os.PathLike[str], *, device: str | None = None, name: str | None = None,
-             ) -> TactileEngine:
-        """A model saved by ``tacreasoner train`` (``…/stage2/model``); a clear error when the folder is not one."""
+             dtype: str | None = None) -> TactileEngine:
+        """A model saved by ``tacreasoner train`` (``…/stage2/model``), its weights cast to ``dtype`` (float32 or
+        bfloat16; as saved when None); a clear error when the folder is not one."""
         from tacreasoner.evaluate.predict import load_trained
 
         path = Path(model_dir)
         if not (path / "config.json").is_file():
             raise FileNotFoundError(f"{path}: not a saved TacReasoner model (no config.json); give the `model` folder "
                                     f"a training run wrote, e.g. runs/quickstart/train/seed0/stage2/model")
-        model, processor = load_trained(path, device=device)
+        model, processor = load_trained(path, device=device, dtype=dtype)
         return cls(model, processor, name=name or "tacreasoner")
 
     # ------------------------------------------------------------------ preparing
