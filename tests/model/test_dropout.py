@@ -38,6 +38,11 @@ def test_sparse_draws_drop_each_position_independently_at_the_rate_up_to_the_las
     for _ in range(4000):  # short rows: each of 3 positions at the rate, the end as often as the start
         hits[dropped_positions(3, p)] += 1
     assert torch.allclose(hits / 4000, torch.full((3,), p), atol=0.014)
+    assert dropped_positions(0, p).numel() == 0
+    x = torch.ones(30, 40).t()  # not contiguous: the drops still land in what is returned
+    torch.manual_seed(1)
+    y = CpuDropout(0.1).train()(x)
+    assert y.shape == x.shape and 60 < int((y == 0).sum()) < 180  # 1200 elements at 0.1: 120 expected
 
 
 def test_masks_differ_per_call_and_repeat_under_the_same_seed() -> None:

@@ -29,8 +29,10 @@ def dropped_positions(n: int, p: float) -> torch.Tensor:
     """The positions in ``range(n)`` that i.i.d. Bernoulli(``p``) draws drop, in order, from about ``p·n`` draws:
     each gap to the next drop is geometric, ``floor(log(u) / log(1 - p)) + 1`` for ``u`` uniform on (0, 1] in
     steps of 2^-31 (so each gap's law is exact to within 2^-31)."""
+    if not 0 < p < 1:
+        raise ValueError(f"dropout probability must be in (0, 1) to place drops, got {p}")
     log_keep = math.log1p(-p)
-    found, last = [], -1
+    found, last = [torch.empty(0, dtype=torch.long)], -1
     while last < n - 1:
         left = n - 1 - last
         count = int(left * p + 6 * math.sqrt(left * p) + 16)  # enough to pass the end but for ~1e-9 of calls
@@ -60,7 +62,7 @@ class CpuDropout(nn.Module):
         if x.device.type != "cpu":
             return nn.functional.dropout(x, self.p, training=True)
         if self.p < SPARSE_BELOW:
-            out = x * self.scale
+            out = (x * self.scale).contiguous()  # a flat view of it below: the drops land in it
             out.view(-1).index_fill_(0, dropped_positions(x.numel(), self.p), 0)
             return out
         draws = torch.empty(x.shape, dtype=torch.int32).random_()
