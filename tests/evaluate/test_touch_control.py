@@ -295,7 +295,7 @@ def test_evaluate_touch_flag_keeps_the_modes_side_by_side(model_dir: Path, bench
     assert "touch must be one of real, blank, shuffled; got 'nothing'" in result.output
     result = runner.invoke(app, [*base, "--dtype", "half"])
     assert result.exit_code == 2
-    assert "dtype must be one of float32, bfloat16; got 'half'" in result.output
+    assert "dtype must be one of float32, bfloat16, auto; got 'half'" in result.output
 
 
 def test_evaluate_video_cache_is_filled_once_and_answers_as_without_it(model_dir: Path, bench: Path,
@@ -475,7 +475,7 @@ def test_answering_in_bfloat16_casts_the_weights_and_is_recorded_so_a_float32_re
 
     model, _ = predict.load_trained(model_dir, device="cpu", dtype="bfloat16")
     assert {p.dtype for p in model.parameters()} == {torch.bfloat16}
-    with pytest.raises(ValueError, match=r"dtype must be one of float32, bfloat16; got 'fp16'"):
+    with pytest.raises(ValueError, match=r"dtype must be one of float32, bfloat16, auto; got 'fp16'"):
         predict.load_trained(model_dir, device="cpu", dtype="fp16")
     info, items = load_bench(bench, "test")
     path = tmp_path / "seed0.jsonl"

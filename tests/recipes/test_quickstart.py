@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from tacreasoner.recipes.quickstart import (
+    QUICKSTART_SETTINGS,
     QuickstartPaths,
     QuickstartRun,
     QuickstartSettings,
@@ -36,6 +37,7 @@ def test_quickstart_settings_ship_with_the_package_and_name_the_recommended_mode
         assert config[section] == shipped[section], section
     given = QuickstartPaths(tmp_path / "qs", llm_dir=tmp_path / "my_llm")
     assert quickstart_config(given, 0).model.llm == str(tmp_path / "my_llm")
+    assert settings.eval_dtype == "auto"  # bf16 answering only where the hardware has it (chosen on val)
 
 
 def test_quickstart_stages_follow_the_data_flow(tmp_path: Path) -> None:
@@ -50,6 +52,20 @@ def test_a_broken_settings_file_is_named(tmp_path: Path) -> None:
     broken.write_text("simulate: {objects: 3}\n")
     with pytest.raises(ValueError, match=r"quickstart\.yaml: not a quickstart settings file"):
         QuickstartSettings.load(broken)
+    broken.write_text(QUICKSTART_SETTINGS.read_text().replace("dtype: auto", "dtype: fp8"))  # one bad value
+    with pytest.raises(ValueError, match=r"not a quickstart settings file \(dtype must be one of .*got 'fp8'\)"):
+        QuickstartSettings.load(broken)
+
+
+def test_auto_answers_in_bf16_only_where_the_hardware_computes_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    from tacreasoner.evaluate import predict
+    from tacreasoner.train import precision
+
+    monkeypatch.setattr(predict.torch.cuda, "is_available", lambda: False)
+    for native, expected in ((True, "bfloat16"), (False, "float32")):
+        monkeypatch.setattr(precision, "bf16_supported", lambda native=native: native)
+        assert predict.resolve_dtype("auto") == expected
+    assert predict.resolve_dtype("float32") == "float32" and predict.resolve_dtype(None) is None
 
 
 @pytest.fixture(scope="module")

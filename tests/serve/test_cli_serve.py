@@ -48,7 +48,7 @@ def test_ask_errors_are_one_line(served_model: Path, clip_files: list[Path], tmp
     assert result.exit_code == 2 and "not a saved TacReasoner model" in result.output
     for option, value, said in (("--max-new-tokens", "0", "--max-new-tokens must be at least 1, got 0"),
                                  ("--top-p", "1.5", "--top-p must be in (0, 1], got 1.5"),
-                                 ("--dtype", "half", "dtype must be one of float32, bfloat16; got 'half'")):
+                                 ("--dtype", "half", "dtype must be one of float32, bfloat16, auto; got 'half'")):
         # the model folder is not one: the option is checked first, and named as this command names it
         result = CliRunner().invoke(app, ["ask", ONE, "--video", str(clip_files[0]), "--model", str(tmp_path),
                                           "--sample", option, value])
@@ -108,7 +108,7 @@ def test_serve_threads_sets_torchs_threads_and_is_checked(served_model: Path, tm
     result = CliRunner().invoke(app, ["serve", "--model", str(tmp_path), "--threads", "0"])
     assert result.exit_code == 2 and result.output.strip() == "error: --threads must be at least 1, got 0"
     result = CliRunner().invoke(app, ["serve", "--model", str(tmp_path), "--dtype", "half"])
-    assert result.exit_code == 2 and "dtype must be one of float32, bfloat16; got 'half'" in result.output
+    assert result.exit_code == 2 and "dtype must be one of float32, bfloat16, auto; got 'half'" in result.output
     seen: dict[str, Any] = {}
 
     def served(app: Any, host: str, port: int, sock: socket.socket | None = None, **kwargs: Any) -> None:

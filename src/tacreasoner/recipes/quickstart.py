@@ -42,15 +42,19 @@ class QuickstartSettings:
     llm: str
     eval_batch_size: int
     max_new_tokens: int
+    eval_dtype: str = "float32"
 
     @classmethod
     def load(cls, path: Path = QUICKSTART_SETTINGS) -> QuickstartSettings:
+        from tacreasoner.evaluate.predict import check_dtype
+
         data, _ = read_yaml(path)
         try:
             sim, train, evaluate = data["simulate"], data["train"], data["evaluate"]
             return cls(objects=int(sim["objects"]), repeats=int(sim["repeats"]), sensors=list(sim["sensors"]),
                        encoder=dict(data["encoder"]), train_config=str(train["config"]), llm=str(train["llm"]),
-                       eval_batch_size=int(evaluate["batch_size"]), max_new_tokens=int(evaluate["max_new_tokens"]))
+                       eval_batch_size=int(evaluate["batch_size"]), max_new_tokens=int(evaluate["max_new_tokens"]),
+                       eval_dtype=str(check_dtype(evaluate.get("dtype", "float32"))))
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"{path}: not a quickstart settings file ({exc})") from None
 
@@ -147,7 +151,8 @@ def quickstart_stages(run: QuickstartRun, settings: QuickstartSettings | None = 
         from tacreasoner.recipes.quickstart_report import evaluate_and_report
 
         report = evaluate_and_report(paths, trained, timings, batch_size=settings.eval_batch_size,
-                                     max_new_tokens=settings.max_new_tokens, progress=progress)
+                                     max_new_tokens=settings.max_new_tokens, dtype=settings.eval_dtype,
+                                     progress=progress)
         return [*report.summary_lines, f"report: {report.path}"]
 
     def ask() -> list[str]:

@@ -19,8 +19,10 @@ __all__ = ["QuickstartReport", "ask_one_test_clip", "evaluate_and_report", "eval
 
 def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tuple[str, ...] = ("test",), *,
                    batch_size: int = 48, max_new_tokens: int = 256, video_cache: Path | None = None,
+                   dtype: str | None = None,
                    progress: Callable[[str], Callable[[int, int], None]] | None = None) -> dict[str, Any]:
-    """Answer each split with each seed's model; one report per split (mean ± std over seeds)."""
+    """Answer each split with each seed's model (weights cast to ``dtype``); one report per split (mean ± std over
+    seeds)."""
     from tacreasoner.evaluate.predict import answer_with_model, answerer_id, set_aside_stale
     from tacreasoner.evaluate.report import evaluate
     from tacreasoner.tasks.bench import load_bench
@@ -31,9 +33,9 @@ def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tupl
         files = []
         for seed, model_dir in sorted(models.items()):
             path = out / split / "predictions" / f"seed{seed}.jsonl"
-            set_aside_stale(path, answerer_id(model_dir, bench))  # the quickstart owns its folder: no refusal
+            set_aside_stale(path, answerer_id(model_dir, bench, dtype))  # the quickstart owns its folder
             answer_with_model(model_dir, bench, info, items, path, batch_size=batch_size,
-                              max_new_tokens=max_new_tokens, video_cache=video_cache,
+                              max_new_tokens=max_new_tokens, video_cache=video_cache, dtype=dtype,
                               progress=None if progress is None else progress(f"{split}, seed {seed}"))
             files.append(path)
         reports[split] = evaluate(items, files, "strict", out / split)
@@ -87,7 +89,7 @@ def results_table(report: Any, baselines: dict[str, dict[str, float]]) -> tuple[
 
 
 def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings: dict[str, Any], *,
-                        batch_size: int = 48, max_new_tokens: int = 64,
+                        batch_size: int = 48, max_new_tokens: int = 64, dtype: str | None = None,
                         progress: Callable[[str], Callable[[int, int], None]] | None = None) -> QuickstartReport:
     """Evaluate every seed's model on the test split(s) and write ``report.md`` + ``report.json``."""
     from datetime import datetime, timezone
@@ -95,7 +97,8 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
     splits = ("test", "test_heldout_sensor") if (paths.bench / "test_heldout_sensor.jsonl").is_file() else ("test",)
     started = time.perf_counter()
     reports = evaluate_seeds(models, paths.bench, paths.evaluation, splits, batch_size=batch_size,
-                             max_new_tokens=max_new_tokens, progress=progress, video_cache=paths.video_cache)
+                             max_new_tokens=max_new_tokens, progress=progress, video_cache=paths.video_cache,
+                             dtype=dtype)
     eval_seconds = round(time.perf_counter() - started, 1)
     baselines = {k: _baseline_accuracy(paths.root, k) for k in ("random", "majority")}
     baselines = {k: v for k, v in baselines.items() if v}
