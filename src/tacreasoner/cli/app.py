@@ -109,6 +109,9 @@ Mode = Annotated[str, typer.Option("--mode", help="Answer extraction: strict or 
 VideoCache = Annotated[Path | None, typer.Option(
     "--video-cache", help="Preprocessed-video folder to reuse and fill (e.g. a training run's data.video_cache): "
                           "commands reading the same clips decode them once.", show_default=False)]
+Dtype = Annotated[str, typer.Option("--dtype", help="Weights' type when answering: float32 (as trained), bfloat16 "
+                                                    "(faster on a CPU with native bf16; replies differ by "
+                                                    "rounding) or auto (bfloat16 where native).")]
 Overrides = Annotated[list[str] | None, typer.Option(
     "--set", help="Override a config value: --set stage2.steps=50 (repeatable; dotted keys).")]
 

@@ -11,6 +11,7 @@ import typer
 
 from tacreasoner.cli.app import (
     Bench,
+    Dtype,
     Mode,
     Split,
     VideoCache,
@@ -98,10 +99,7 @@ def evaluate_cmd(
                                                        "report in touch_<touch>/.")] = "real",
     touch_seed: Annotated[int, typer.Option("--touch-seed", help="Seed of the shuffled videos.")] = 0,
     video_cache: VideoCache = None,
-    dtype: Annotated[str, typer.Option("--dtype", help="Weights' type when answering: float32 (as trained), "
-                                                       "bfloat16 (faster on a CPU with native bf16; replies "
-                                                       "differ by rounding) or auto (bfloat16 where "
-                                                       "native).")] = "float32",
+    dtype: Dtype = "float32",
 ) -> None:
     """Answer a benchmark split with a trained model and score it (Wilson CIs; resumable predictions)."""
     needs_train_extra("evaluate")

@@ -13,7 +13,7 @@ from typing import Annotated, Any
 
 import typer
 
-from tacreasoner.cli.app import app, at_least_one, cli_errors, console, needs_train_extra
+from tacreasoner.cli.app import Dtype, app, at_least_one, cli_errors, console, needs_train_extra
 from tacreasoner.recipes.quickstart import QUICKSTART_DIR
 
 DEFAULT_MODEL = QUICKSTART_DIR / "model"
@@ -22,9 +22,6 @@ ASK_OPTIONS = {"max_tokens": "--max-new-tokens", "temperature": "--temperature",
 ModelDir = Annotated[Path, typer.Option("--model", help="Trained model directory (a training run's stage2/model).")]
 Host = Annotated[str, typer.Option(help="Address to listen on (0.0.0.0 for every interface).")]
 Port = Annotated[int, typer.Option(help="TCP port.")]
-Dtype = Annotated[str, typer.Option("--dtype", help="Weights' type when answering: float32 (as trained), bfloat16 "
-                                                    "(faster on a CPU with native bf16; replies differ by "
-                                                    "rounding) or auto (bfloat16 where native).")]
 
 
 def _load_engine(model: Path, name: str = "tacreasoner", dtype: str = "float32") -> Any:

@@ -50,11 +50,9 @@ def resolve_dtype(dtype: str | None) -> str | None:
     """``auto`` as this machine answers it (bfloat16 with native bf16, else float32); any other type as given."""
     if check_dtype(dtype) != "auto":
         return dtype
-    from tacreasoner.train.precision import bf16_supported
+    from tacreasoner.train.precision import resolve_mixed_precision  # the same hardware test training's "auto" uses
 
-    if torch.cuda.is_available():
-        return "bfloat16" if torch.cuda.is_bf16_supported() else "float32"
-    return "bfloat16" if bf16_supported() else "float32"
+    return "bfloat16" if resolve_mixed_precision("auto") == "bf16" else "float32"
 
 
 def load_trained(model_dir: str | os.PathLike[str], adapter: str | os.PathLike[str] | None = None,
