@@ -108,6 +108,27 @@ def per_task_table(recipe: dict[int, list[dict]], scored: dict[str, dict[int, li
     return md_table(["task", "recipe", *others], rows)
 
 
+def form_table(recipe: dict[int, list[dict]], scored: dict[str, dict[int, list[dict]]]) -> tuple[str, dict]:
+    """Per variant, the share of replies in the asked form and, on the items it answered in form, its accuracy beside
+    the recipe's on the same items: does a variant lose on what it reads, or only on how it answers?"""
+    rows, payload = [], {}
+    for variant, runs in scored.items():
+        if not runs:
+            continue
+        per_seed = []
+        for s, recs in runs.items():
+            base = {r["id"]: r["correct"] for r in recipe[s]}
+            read = [r for r in recs if not r["parse_failed"] and r["id"] in base]
+            per_seed.append({"seed": s, "in_form": len(read) / len(recs), "items": len(read),
+                             "variant": sum(r["correct"] for r in read) / max(len(read), 1),
+                             "recipe": sum(base[r["id"]] for r in read) / max(len(read), 1)})
+        payload[variant] = per_seed
+        rows.append([variant, " / ".join(pct(p["in_form"]) for p in per_seed),
+                     " / ".join(f"{pct(p['variant'])} vs {pct(p['recipe'])} (n {p['items']})" for p in per_seed)])
+    return md_table(["variant", "replies in the asked form, per seed", "accuracy on those items: variant vs "
+                     "recipe, per seed"], rows), payload
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--run", type=Path, required=True, help="the unpacked dyntac_gpu.tgz (holds eval/)")
@@ -119,6 +140,7 @@ def main() -> None:
                     help="compare these scored variants (eval/NAME.seedS/val) instead of the paper's ablations")
     ap.add_argument("--title", default="The paper's ablations on DynTAC-Sim val, paired by seed, on the recommended "
                                         "recipe", help="the result file's heading")
+    ap.add_argument("--out-dir", type=Path, help="write the result files here instead of benchmarks/results")
     args = ap.parse_args()
     variants = dict(v.split("=", 1) for v in args.variant) if args.variant else ABLATIONS
     if args.notes_file is not None:
@@ -160,7 +182,11 @@ def main() -> None:
     md += ("\n## Per task on val\n\nMean over seeds (the variant minus the recipe, points); a task's n is in the "
            "recipe's table above, so one item of 75 is 1.3 points of one seed.\n\n")
     md += per_task_table(recipe, scored)
-    publish(args.name, payload, md)
+    table, payload["answer_form"] = form_table(recipe, scored)
+    md += ("\n## Answer form on val\n\nA reply outside the asked form scores wrong under strict extraction. Where "
+           "a variant answers in form, does it read the touch as well as the recipe does on the same items?\n\n"
+           + table)
+    publish(args.name, payload, md, args.out_dir)
 
 
 if __name__ == "__main__":

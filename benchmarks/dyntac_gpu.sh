@@ -52,6 +52,7 @@ LIMIT=${LIMIT:-}                           # dry runs: e.g. "--limit 8"
 THREADS=${THREADS:-1}                      # CPU threads per chain (heads' fits, data): 1 with 18 chains on 16 cores
 BASE=${BASE:-}                             # settings for every training, e.g. "--set data.paraphrases=false": the
                                            # recipe before data.paraphrases shipped, which the ablation table pairs with
+TEST=${TEST:-1}                            # 0: the recipe is not scored on test (already scored once elsewhere)
 # shellcheck source=benchmarks/_gpu_lib.sh
 source "$(dirname "${BASH_SOURCE[0]}")/_gpu_lib.sh"  # say, step, wait_for_jobs_until
 
@@ -86,7 +87,7 @@ chain() {  # chain VARIANT SEED: its training, then its scores
     case $v in
     rec|no_dyn|no_qcond) train "$v" "$s" 1 && train "$v" "$s" 2 && score "$v.seed$s" "$run/stage2/model" val 64 \
         || return 1
-        [ "$v" = rec ] && score "$v.seed$s" "$run/stage2/model" test 64 ;;
+        [ "$v" = rec ] && [ "$TEST" = 1 ] && score "$v.seed$s" "$run/stage2/model" test 64 ;;
     no_stage1) train "$v" "$s" 2 && score "$v.seed$s" "$run/stage2/model" val 64 ;;
     cot|no_stage2)  # from the recipe's Stage I of the seed: trained here when rec is not among the variants
         if [[ " ${VARIANTS[*]} " != *" rec "* ]]; then train rec "$s" 1 || return 1; fi
@@ -122,7 +123,7 @@ pipeline() {
         --set data.bench="$W/bench" --set data.video_cache="$W/video_cache" --set runtime.progress=false || return 1
     local v s
     local splits=val
-    [[ " ${VARIANTS[*]} " == *" rec "* ]] && splits="val test"  # only the recipe is scored on test
+    [[ " ${VARIANTS[*]} " == *" rec "* ]] && [ "$TEST" = 1 ] && splits="val test"  # only the recipe, on test
     for s in $splits; do  # the scored splits' clips decoded into the cache once, beside the chains' Stage I
         # shellcheck disable=SC2086
         TACREASONER_VIDEO_WORKERS=6 step "decode_$s" "$W/decoded/$s/report.md" $TR evaluate --model \
