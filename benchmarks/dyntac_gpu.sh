@@ -136,7 +136,7 @@ pipeline() {
     done; done
     if ! wait_for_jobs_until "$deadline"; then
         say "deadline: stopping what is unfinished"
-        pkill -f "tacreasoner (train|evaluate)" 2>/dev/null
+        pkill -f "tacreasoner (train|evaluate) .*$W/" 2>/dev/null  # this pipeline's own: a dry run here must not stop other runs
         sleep 2
     fi
     wait 2>/dev/null
