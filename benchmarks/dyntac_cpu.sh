@@ -33,7 +33,7 @@ declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
                  [no_qcond]="--set model.encoder.question_conditioning=false"
                  [para]="--set data.paraphrases=true"
                  [para_osc]="--set data.paraphrases=true --set data.repeat={\"OSC\":2}"
-                 [cot]="--set data.stage2_data=touchcot --set data.touchcot=$OUT/touchcot/touchcot/touchcot_train.jsonl"
+                 [cot]="--set data.stage2_data=touchcot --set data.touchcot=$OUT/touchcot/touchcot/touchcot_train.jsonl --set data.max_length=512"
                  [no_stage1]="--set stage1.skip=true" [no_stage2]=""
                  [b4]="--set stage1.batch_size=4 --set stage2.batch_size=4")
 # Stage II from another variant's Stage I of the seed: cot (its Stage I is the recipe's), para_osc (Stage I has no OSC

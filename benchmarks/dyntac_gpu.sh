@@ -8,6 +8,7 @@
 #   no_dyn     without the temporal branch (model.encoder.use_temporal=false)
 #   no_qcond   without question conditioning (model.encoder.question_conditioning=false)
 #   cot        Stage II on TouchCoT (offline rules teacher) instead of plain answers, from rec's Stage I of the seed
+#              (at data.max_length=512: TouchCoT's targets are longer than the plain answers' 320)
 #   no_stage1  without Stage I (stage1.skip=true: Stage II from the untrained projector)
 #   no_stage2  without Stage II (rec's Stage I model answers)
 # The lent machine reaches no registry and a call carries at most 64 MiB, so the work is split over calls on one
@@ -32,10 +33,11 @@
 # the second lease) Stage I took ~70 s a run, Stage II ~225 s (set-up included) and a scoring ~25 s: the set-up and
 # about two variants x 3 seeds fit one lease. The third lease (VARIANTS="no_dyn no_qcond" THREADS=2, 6 chains at
 # once) finished in 479 s of part 2 after a 24 s set-up call: Stage I ~80 s, Stage II ~230 s, a val scoring ~30 s.
-# Left (2026-11-27): cot on the recipe the table holds, before data.paraphrases shipped (VARIANTS=cot
-# BASE="--set data.paraphrases=false" COT=runs/dyntac_cpu/touchcot/touchcot/touchcot_train.jsonl at prep: it trains
-# the recipe's Stage I of its seed itself when rec is not among the variants, and answers with up to 256 tokens; on
-# 2 CPU cores a TouchCoT Stage II step takes ~10 s, so there 3 seeds are ~6 hours).
+# cot (2026-11-28): the first H200 lease ran `VARIANTS="rec cot" TEST=0` at the shipped max_length of 320 tokens,
+# which left out 18% of the TouchCoT examples (every OSC and combined-attribute one): that run is void
+# (experiments/2026-11-28_dyntac_shipped/cot_gpu_void). cot now trains at data.max_length=512 (the longest example
+# is 496 tokens) and the trainer refuses a max_length that leaves out a whole task. The same call sizes fit one
+# lease: set-up ~1 min, part 2 ~9 min (Stage I 75 s, Stage II ~4 min, a TouchCoT val scoring ~2 min).
 set -u
 export PYTHONUNBUFFERED=1 PYTHONPATH=/tmp/site:$PWD/src
 W=${W:-/tmp/w}
@@ -58,7 +60,7 @@ source "$(dirname "${BASH_SOURCE[0]}")/_gpu_lib.sh"  # say, step, wait_for_jobs_
 
 declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
                  [no_qcond]="--set model.encoder.question_conditioning=false"
-                 [cot]="--set data.stage2_data=touchcot --set data.touchcot=$W/touchcot_train.jsonl"
+                 [cot]="--set data.stage2_data=touchcot --set data.touchcot=$W/touchcot_train.jsonl --set data.max_length=512"
                  [no_stage1]="--set stage1.skip=true" [no_stage2]="")
 # CPU priority (the chains are CPU-bound): the recipe first, then the cheaper ablations; the last two mostly wait
 declare -A NICE=([rec]=0 [no_stage2]=0 [no_dyn]=2 [no_stage1]=2 [no_qcond]=19 [cot]=19)

@@ -65,3 +65,20 @@ def test_repeat_tasks_repeats_the_named_tasks_in_place() -> None:
     examples = [example("a", "SFD"), example("b", "OSC"), example("c", "RFOR")]
     assert [e.key for e in repeat_tasks(examples, {"OSC": 3})] == ["a", "b", "b", "b", "c"]
     assert repeat_tasks(examples, None) == examples
+
+
+def _examples(tasks: str) -> list:
+    from tacreasoner.train.data import TrainExample
+
+    return [TrainExample(key=f"{t}{i}", task=t, question="q", target="a", videos=()) for i, t in enumerate(tasks)]
+
+
+def test_left_out_examples_are_counted_per_task_and_losing_a_whole_task_is_an_error() -> None:
+    from tacreasoner.train.data import TooLong, left_out_by_task
+
+    examples = _examples("AABBB")
+    assert left_out_by_task(examples, [], 320) == {}
+    assert left_out_by_task(examples, [TooLong("B2", "B", 400)], 320) == {"B": 1}
+    with pytest.raises(ValueError, match=r"max_length=320 leaves out every example of A \(the longest is 496 tokens"
+                                         r"\): raise data.max_length to at least 496"):
+        left_out_by_task(examples, [TooLong("A0", "A", 496), TooLong("A1", "A", 330), TooLong("B2", "B", 400)], 320)

@@ -12,7 +12,7 @@ from safetensors.torch import load_file
 
 from tacreasoner.model.modeling import TacReasonerForCausalLM
 from tacreasoner.train.trainer import NonFiniteLossError, train_stage
-from tests.train.trainsetup import tiny_config, training_inputs
+from tests.train.trainsetup import ENCODER, tiny_config, training_inputs
 
 
 @pytest.fixture(scope="module")
@@ -405,3 +405,29 @@ def test_standardized_appearance_is_measured_on_the_training_clips_and_kept(inpu
     plain = tiny_config(inputs, tmp_path / "plain", stage1={"steps": 1}, data={"stage2_data": "plain"})
     train_stage(plain, 1)
     assert not load_model(tmp_path / "plain" / "stage1" / "model")[0].tactile_encoder.appearance_measured
+
+
+def test_a_max_length_that_leaves_out_a_whole_task_stops_the_run_and_a_partial_loss_is_counted(
+        inputs, tmp_path, capfd) -> None:
+    """Long TouchCoT targets at a plain-answer recipe's max_length once dropped every OSC example silently."""
+    from tacreasoner.model.build import build_model
+    from tacreasoner.train.data import load_examples, tokenize_examples
+
+    tasks = ["TFA-hardness", "TFA-combined"]
+    _, processor = build_model(str(inputs["llm"]), encoder=dict(ENCODER))
+    tokenized, _ = tokenize_examples(processor, load_examples(1, inputs["bench"], tasks=tasks), 10**6)
+    lengths = {task: [len(t.input_ids) for t in tokenized if t.task == task] for task in tasks}
+    cut = min(lengths["TFA-combined"])  # combined asks for four attributes: its replies are the longer ones
+    assert min(lengths["TFA-hardness"]) < cut
+    config = tiny_config(inputs, tmp_path / "lost", data={"tasks": tasks, "max_length": cut - 1})
+    with pytest.raises(ValueError, match="leaves out every example of TFA-combined"):
+        train_stage(config, 1)
+    over = {task: sum(n > cut for n in lengths[task]) for task in tasks}
+    assert over["TFA-combined"] > 0
+    partial = tiny_config(inputs, tmp_path / "partial", stage1={"steps": 1}, data={"tasks": tasks, "max_length": cut})
+    train_stage(partial, 1)
+    run = json.loads((tmp_path / "partial" / "stage1" / "run.json").read_text(encoding="utf-8"))
+    assert run["dropped_too_long"] == sum(over.values())
+    assert run["dropped_by_task"] == {task: n for task, n in sorted(over.items()) if n}
+    assert f"longer than data.max_length={cut} and left out (TFA-combined {over['TFA-combined']}" in \
+        capfd.readouterr().err

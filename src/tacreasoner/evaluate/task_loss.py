@@ -54,7 +54,7 @@ def task_losses(model_dir: str | Path, bench_dir: str | Path, *, splits: Sequenc
         chosen[split], dropped = tokenize_examples(processor, examples, max_length)
         if dropped:
             raise ValueError(f"{bench_dir}: {len(dropped)} {split} items are longer than {max_length} tokens "
-                             f"(first: {dropped[0]})")
+                             f"(first: {dropped[0].key}, {dropped[0].length} tokens)")
     bank = VideoBank(processor.video_config, processor.sensor_types)
     bank.build([k for tokenized in chosen.values() for e in tokenized for k in e.videos], cache_dir=video_cache)
     base = model.get_base_model() if hasattr(model, "get_base_model") else model

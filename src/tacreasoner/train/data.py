@@ -34,8 +34,8 @@ from tacreasoner.model.processing import IGNORE_INDEX
 from tacreasoner.model.video_processing import sensor_index
 from tacreasoner.tasks.schema import PLACEHOLDER, TFA_TASKS, QAItem, VideoRef
 
-__all__ = ["STAGE1_TASKS", "TrainExample", "VideoBank", "batch_plan", "batch_purity", "load_examples",
-           "padding_fraction", "tokenize_examples"]
+__all__ = ["STAGE1_TASKS", "TooLong", "TrainExample", "VideoBank", "batch_plan", "batch_purity", "left_out_by_task",
+           "load_examples", "padding_fraction", "tokenize_examples"]
 
 STAGE1_TASKS = (*TFA_TASKS, "RFOR", "OCSE")
 """Single-clip description tasks: Stage I's alignment data."""
@@ -256,19 +256,43 @@ class Tokenized:
         return sum(1 for t in self.labels if t != IGNORE_INDEX)
 
 
+@dataclass(frozen=True)
+class TooLong:
+    """An example longer than ``data.max_length``: left out of training, never truncated mid-answer."""
+
+    key: str
+    task: str
+    length: int
+
+
 def tokenize_examples(processor: Any, examples: Sequence[TrainExample], max_length: int,
-                      system: str | None = None) -> tuple[list[Tokenized], list[str]]:
-    """Token ids + labels (assistant only) for each example; those over ``max_length`` are returned by key."""
+                      system: str | None = None) -> tuple[list[Tokenized], list[TooLong]]:
+    """Token ids + labels (assistant only) for each example; those over ``max_length`` are returned apart."""
     kept, dropped = [], []
     for e in examples:
         enc = processor.encode_conversation(processor.messages(e.question, e.target, system),
                                             add_generation_prompt=False)
         if len(enc.input_ids) > max_length:
-            dropped.append(e.key)
+            dropped.append(TooLong(e.key, e.task, len(enc.input_ids)))
             continue
         kept.append(Tokenized(enc.input_ids, enc.labels, enc.question_mask, e.videos, e.key, e.winner, e.attribute,
                               e.more, e.assignment, e.task))
     return kept, dropped
+
+
+def left_out_by_task(examples: Sequence[TrainExample], dropped: Sequence[TooLong], max_length: int) -> dict[str, int]:
+    """Per task, how many examples ``max_length`` leaves out. A task that loses every example is an error: the
+    model would silently never see it (long TouchCoT reasoning over 3 videos at the plain-answer recipe's 320
+    tokens lost every OSC and combined-attribute example)."""
+    left_out = Counter(d.task for d in dropped)
+    total = Counter(e.task for e in examples)
+    lost = sorted(t for t, n in left_out.items() if n == total[t])
+    if lost:
+        longest = max(d.length for d in dropped if d.task in lost)
+        raise ValueError(f"data.max_length={max_length} leaves out every example of {', '.join(lost)} (the longest "
+                         f"is {longest} tokens): raise data.max_length to at least {longest}, or leave the task "
+                         f"out with data.tasks")
+    return dict(sorted(left_out.items()))
 
 
 def repeat_tasks(examples: Sequence[Tokenized], repeat: dict[str, int] | None) -> list[Tokenized]:

@@ -23,6 +23,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import sys
 import time
 from collections.abc import Callable
 from contextlib import nullcontext
@@ -34,7 +35,15 @@ import torch
 
 from tacreasoner.progress import ProgressBar
 from tacreasoner.train.config import TrainConfig
-from tacreasoner.train.data import VideoBank, batch_plan, collate, load_examples, repeat_tasks, tokenize_examples
+from tacreasoner.train.data import (
+    VideoBank,
+    batch_plan,
+    collate,
+    left_out_by_task,
+    load_examples,
+    repeat_tasks,
+    tokenize_examples,
+)
 from tacreasoner.train.engine_state import (
     engine_saves_optimizer,
     gather_trainable,
@@ -274,6 +283,11 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: ProgressBar, la
     tokenized, dropped = tokenize_examples(processor, examples, config.data.max_length)
     if not tokenized:
         raise ValueError(f"every example is longer than data.max_length={config.data.max_length} tokens")
+    left_out = left_out_by_task(examples, dropped, config.data.max_length)
+    if left_out and accelerator.is_main_process:
+        print(f"stage {stage}: {len(dropped)} of {len(examples)} examples are longer than data.max_length="
+              f"{config.data.max_length} and left out ({', '.join(f'{t} {n}' for t, n in left_out.items())}; the "
+              f"longest is {max(d.length for d in dropped)} tokens)", file=sys.stderr, flush=True)
     bank = VideoBank(processor.video_config, processor.sensor_types)
     video_keys = [k for e in tokenized for k in e.videos]
     bar.stage("preprocessing videos", len(set(video_keys)), unit="clips")
@@ -325,7 +339,8 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: ProgressBar, la
     trained.train()
 
     run_info = {"stage": stage, "config": config.to_dict(), "examples": len(tokenized),
-                "dropped_too_long": len(dropped), "dropped_examples": dropped[:20], "videos": len(bank.index),
+                "dropped_too_long": len(dropped), "dropped_by_task": left_out,
+                "dropped_examples": [d.key for d in dropped[:20]], "videos": len(bank.index),
                 "processes": world, "global_batch": global_batch, "engine": _engine_name(accelerator),
                 "mixed_precision": accelerator.mixed_precision, "device": str(accelerator.device), "packed": pack,
                 "threads": torch.get_num_threads(),
