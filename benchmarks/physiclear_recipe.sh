@@ -27,7 +27,7 @@ SEEDS=("$@")
 [ $# -eq 0 ] && SEEDS=(0)
 read -r -a VARIANTS <<< "${VARIANTS:-rec}"
 declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
-                 [cot]="--set data.stage2_data=touchcot --set data.touchcot=$W/touchcot/touchcot/touchcot_train.jsonl"
+                 [cot]="--set data.stage2_data=touchcot --set data.touchcot=$W/touchcot/touchcot/touchcot_train.jsonl --set data.max_length=512"
                  [no_stage1]="--set stage1.skip=true"
                  [heads]="--set model.encoder.cross_video=3 --set model.encoder.clip_reader=true"
                  [long]="--set stage1.steps=300 --set stage2.steps=600")
