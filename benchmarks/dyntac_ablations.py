@@ -3,7 +3,8 @@ folders that benchmarks/dyntac_gpu.sh leaves (``eval/<variant>.seed<S>/<split>/s
 
 Writes ``benchmarks/results/<name>.{md,json}``: the recipe over its seeds on val (and on test, scored once, when
 its test folders exist), then one row per ablation: Average mean ± std over seeds, its difference to the recipe,
-and per seed an exact McNemar test on the same val items (the ablation and the recipe share the seed).
+and per seed an exact McNemar test on the same val items (the ablation and the recipe share the seed); per task;
+and the answer form (replies in the asked form, and accuracy on those items beside the recipe's on the same items).
 
     python benchmarks/dyntac_ablations.py --run /tmp/dyntac_gpu --name dyntac_ablations_val \\
         --machine "one lent H100" --notes "..."
