@@ -281,9 +281,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: ProgressBar, la
                                   video_readings=config.data.stage1_video_readings,
                                   comparisons=config.data.stage1_comparisons, paraphrases=config.data.paraphrases)
     tokenized, dropped = tokenize_examples(processor, examples, config.data.max_length)
-    if not tokenized:
-        raise ValueError(f"every example is longer than data.max_length={config.data.max_length} tokens")
-    left_out = left_out_by_task(examples, dropped, config.data.max_length)
+    left_out = left_out_by_task(examples, dropped, config.data.max_length)  # stops when a whole task (or all) is out
     if left_out and accelerator.is_main_process:
         print(f"stage {stage}: {len(dropped)} of {len(examples)} examples are longer than data.max_length="
               f"{config.data.max_length} and left out ({', '.join(f'{t} {n}' for t, n in left_out.items())}; the "
