@@ -108,7 +108,7 @@ for job in "${JOBS[@]}"; do
         [ "$v" = cot ] && { touchcot || exit 1; }
         mkdir -p "$OUT/runs/$v.seed$s"
         [ -e "$OUT/runs/$v.seed$s/stage1" ] || ln -s "../$base.seed$s/stage1" "$OUT/runs/$v.seed$s/stage1"
-        train "$v" "$s" 2 && score "$v" "$s" "$([ "$v" = cot ] && echo 256 || echo 64)" || exit 1
+        train "$v" "$s" 2 && score "$v" "$s" "$([ "$v" = cot ] && echo 512 || echo 64)" || exit 1
     else
         train "$v" "$s" 1 && train "$v" "$s" 2 && score "$v" "$s" 64 || exit 1
     fi

@@ -99,7 +99,7 @@ chain() {  # chain VARIANT SEED: its training, then its scores
         done
         if [ "$v" = no_stage2 ]; then score "$v.seed$s" "$W/runs/rec.seed$s/stage1/model" val 64; return; fi
         mkdir -p "$run" && { [ -e "$run/stage1" ] || ln -s "../rec.seed$s/stage1" "$run/stage1"; }
-        train "$v" "$s" 2 && score "$v.seed$s" "$run/stage2/model" val 256 ;;
+        train "$v" "$s" 2 && score "$v.seed$s" "$run/stage2/model" val "$([ "$v" = cot ] && echo 512 || echo 256)" ;;
     esac
 }
 

@@ -33,7 +33,7 @@ def main() -> None:
     parser.add_argument("--touch-seed", type=int, default=0, help="seed of the shuffled videos")
     parser.add_argument("--mode", default="strict", help="answer extraction: strict or lenient")
     parser.add_argument("--batch-size", type=int, default=32)
-    parser.add_argument("--max-new-tokens", type=int, default=256)
+    parser.add_argument("--max-new-tokens", type=int, default=512, help="longest reply (room for TouchCoT)")
     parser.add_argument("--video-cache", type=Path, default=None,
                         help="preprocessed-video cache shared by the three runs (default: <out>/video_cache)")
     parser.add_argument("--results-dir", type=Path, default=None, help="default: benchmarks/results")

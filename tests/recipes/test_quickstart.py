@@ -96,6 +96,8 @@ def test_evaluate_and_report_writes_tables_verdicts_and_publishes_the_model(trai
     assert set(report.beats_chance["test"]) == tasks
     assert (paths.model / "config.json").is_file(), "the seed-0 model is published for `tacreasoner ask`"
     lines = (paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines()
+    cut = sum(json.loads(line)["cut"] for line in lines)  # each line says whether the 64-token budget stopped it
+    assert ("stopped at the 64-token budget" in text) == (cut > 0)
     again = evaluate_and_report(paths, {0: paths.train(0) / "stage2" / "model"}, {})
     assert (paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines() == lines, \
         "a finished prediction file is reused, not regenerated"
@@ -111,6 +113,22 @@ def test_evaluate_and_report_writes_tables_verdicts_and_publishes_the_model(trai
     assert stale.read_text().splitlines() == lines
     fresh = [json.loads(line) for line in (stale.parent / "seed0.jsonl").read_text().splitlines()]
     assert len(fresh) == len(lines) and all(r["answered_by"].endswith(f" v{info['version'] + 1}") for r in fresh)
+
+
+def test_the_report_warns_of_replies_the_budget_cut(tmp_path: Path) -> None:
+    from tacreasoner.recipes.quickstart_report import _cut_lines
+
+    for seed, cut in ((0, [True, False]), (1, [True, True])):
+        path = tmp_path / "test" / "predictions" / f"seed{seed}.jsonl"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text("".join(json.dumps({"id": f"i{k}", "task": ["OSC", "SFD"][k], "prediction": "", "cut": c})
+                                + "\n" for k, c in enumerate(cut)))
+    lines = _cut_lines(tmp_path, {"test": None}, 64)
+    assert lines[0].startswith("**Warning** (`test`): 3 replies stopped at the 64-token budget")
+    assert lines[0].endswith("OSC 2, SFD 1.")
+    for path in (tmp_path / "test" / "predictions").glob("*.jsonl"):
+        path.write_text(path.read_text().replace('"cut": true', '"cut": false'))
+    assert _cut_lines(tmp_path, {"test": None}, 64) == []
 
 
 def test_ask_one_test_clip_prints_a_command_that_can_be_pasted(trained_run, monkeypatch) -> None:

@@ -91,7 +91,8 @@ def evaluate_cmd(
     split: Split = "test",
     mode: Mode = "strict",
     batch_size: Annotated[int, typer.Option("--batch-size", help="Prompts per generate call.")] = 32,
-    max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply.")] = 256,
+    max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply (room for TouchCoT "
+                                                                         "reasoning over 3 videos).")] = 512,
     limit: Annotated[int | None, typer.Option("--limit", help="Only the first N items (trial runs).")] = None,
     touch: Annotated[str, typer.Option("--touch", help="Removed-touch control: real (the item's videos), blank "
                                                        "(featureless clips) or shuffled (other items' videos). "
@@ -104,7 +105,7 @@ def evaluate_cmd(
     """Answer a benchmark split with a trained model and score it (Wilson CIs; resumable predictions)."""
     needs_train_extra("evaluate")
     at_least_one("--batch-size", batch_size)
-    from tacreasoner.evaluate.predict import check_dtype, check_touch, predict_split
+    from tacreasoner.evaluate.predict import check_dtype, check_touch, cut_warning, predict_split
     from tacreasoner.evaluate.report import evaluate
 
     check_touch(touch)  # before the model loads: a typo fails at once
@@ -115,6 +116,8 @@ def evaluate_cmd(
     report_dir = out if touch == "real" else out / f"touch_{touch}"
     report = evaluate(items, [preds], mode, report_dir)
     console.print(report.to_markdown())
+    if (warning := cut_warning(preds, max_new_tokens)) is not None:
+        console.print(warning)
     console.print(f"report: {report_dir / 'report.md'}; predictions: {preds}")
 
 
@@ -133,7 +136,8 @@ def evaluate_physiclear_cmd(
                                                  show_default=False)] = None,
     mode: Mode = "strict",
     batch_size: Annotated[int, typer.Option("--batch-size", help="Prompts per generate call.")] = 32,
-    max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply.")] = 256,
+    max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply (room for TouchCoT "
+                                                                         "reasoning over 3 videos).")] = 512,
     retrieval: Annotated[Path | None, typer.Option(
         "--retrieval", help="Retrieval augmentation: the benchmark the model trained on; each question gets its "
                             "videos' nearest clips of that benchmark's train split (as `retrieval-bench` wrote "

@@ -48,7 +48,7 @@ def ask(
     question: Annotated[str, typer.Argument(help="Question with one <tactile> per video, e.g. 'Is <tactile> soft?'.")],
     video: Annotated[list[Path], typer.Option("--video", help="Tactile video file, one per <tactile> (repeatable).")],
     model: ModelDir = DEFAULT_MODEL,
-    max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply.")] = 256,
+    max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply.")] = 512,
     sample: Annotated[bool, typer.Option("--sample/--greedy", help="Sample instead of greedy decoding.")] = False,
     temperature: Annotated[float, typer.Option(help="Sampling temperature (with --sample).")] = 0.7,
     top_p: Annotated[float, typer.Option("--top-p", help="Nucleus sampling mass (with --sample).")] = 0.9,

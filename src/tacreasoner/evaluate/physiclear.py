@@ -48,13 +48,13 @@ def same_settings_as_before(out: Path, settings: dict) -> None:
 
 def evaluate_folder(models: Sequence[Path], data: Path, out: Path, *, split: str | None = None, seed: int = 0,
                     per_task: int | None = None, mode: str = "strict", batch_size: int = 32,
-                    max_new_tokens: int = 256, retrieval: Path | None = None, encoder: Path | None = None,
+                    max_new_tokens: int = 512, retrieval: Path | None = None, encoder: Path | None = None,
                     retrieval_k: int | None = None, wording: str = "benchmark",
                     progress: Callable[[str], Callable[[int, int], None] | None] | None = None,
                     say: Callable[[str], None] = print) -> FolderEvaluation:
     """Every model answers the folder's ``split`` (default: test, or the only labelled split); see the module doc.
     ``progress(label)`` gives a per-model progress callback."""
-    from tacreasoner.evaluate.predict import answerer_id, load_trained, predict_items, predictions_path
+    from tacreasoner.evaluate.predict import answerer_id, cut_warning, load_trained, predict_items, predictions_path
     from tacreasoner.evaluate.report import evaluate
     from tacreasoner.tasks.bench import build_folder_bench, load_bench, reword_bench
     from tacreasoner.train.data import bench_video_root
@@ -85,6 +85,8 @@ def evaluate_folder(models: Sequence[Path], data: Path, out: Path, *, split: str
         bar = progress(f"answering {name}, model {k + 1} of {len(models)}") if progress else None
         predict_items(model, processor, items, bench_video_root(summary.out_dir, info), path, batch_size=batch_size,
                       max_new_tokens=max_new_tokens, progress=bar, answered_by=answerer_id(model_dir, summary.out_dir))
+        if (warning := cut_warning(path, max_new_tokens)) is not None:
+            say(warning)
         paths.append(path)
         del model
     report = evaluate(items, paths, mode, out)

@@ -32,6 +32,11 @@ TOUCH_MODES = ("real", "blank", "shuffled")
 """What the model gets as touch: the item's own videos, a featureless clip, or other items' videos."""
 
 VideoKey = tuple[str, int | None, int | None]
+REPLY_TOKENS = 512
+"""Default reply budget: room for the longest TouchCoT reasoning the builder writes (OSC and combined attributes over
+three videos: up to ~420 tokens). A reply stopped by the budget has no ``<answer>`` and scores wrong, so a budget
+shorter than what the model was trained to write costs accuracy silently; :func:`cut_replies` counts them."""
+
 ANSWER_DTYPES = {"float32": torch.float32, "bfloat16": torch.bfloat16, "auto": None}
 """Weights' type when answering; ``auto`` is bfloat16 where the hardware computes it natively, float32 elsewhere
 (emulated bf16 is slower than float32). bf16 replies differ from float32's by rounding: three SmolLM2 quickstart
@@ -249,7 +254,7 @@ def _answerer(line: str, default: str) -> str | None:
 
 
 def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_root: str | os.PathLike[str],
-                  out_path: str | os.PathLike[str], *, batch_size: int = 32, max_new_tokens: int = 256,
+                  out_path: str | os.PathLike[str], *, batch_size: int = 32, max_new_tokens: int = REPLY_TOKENS,
                   progress: Callable[[int, int], None] | None = None,
                   video_cache: str | os.PathLike[str] | None = None, touch: str = "real",
                   touch_seed: int = 0, answered_by: str | None = None) -> Path:
@@ -311,8 +316,9 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
             new = base.generate(**batch, max_new_tokens=max_new_tokens, do_sample=False, eos_token_id=eos,
                                 pad_token_id=pad)
             texts = processor.tokenizer.batch_decode(new, skip_special_tokens=True)
-            for item, text in zip(chunk, texts, strict=True):
-                record = {"id": item.id, "prediction": text.strip(), "task": item.task, **tag}
+            cut = _stopped_by_budget(new, eos, max_new_tokens)
+            for item, text, was_cut in zip(chunk, texts, cut, strict=True):
+                record = {"id": item.id, "prediction": text.strip(), "task": item.task, "cut": was_cut, **tag}
                 if touch == "shuffled":  # which clips it was shown, for checking the control
                     record["touch_videos"] = [_key_name(k, root) for k in keys[item.id]]
                 f.write(json.dumps(record) + "\n")
@@ -320,6 +326,40 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
             if progress is not None:
                 progress(len(items) - len(todo) + start + len(chunk), len(items))
     return out
+
+
+def _stopped_by_budget(new: torch.Tensor, eos: Sequence[int], max_new_tokens: int) -> list[bool]:
+    """Per row of ``generate``'s new tokens: did ``max_new_tokens`` end it, before the model ended its turn?"""
+    if new.shape[-1] < max_new_tokens:
+        return [False] * new.shape[0]
+    ended = torch.isin(new, torch.tensor(list(eos), device=new.device)).any(dim=-1)
+    return [not bool(e) for e in ended]
+
+
+def cut_replies(path: str | os.PathLike[str]) -> dict[str, int]:
+    """Replies in a predictions file that ``max_new_tokens`` stopped before the model ended them, per task (lines
+    written before this was recorded count as not cut)."""
+    counts: dict[str, int] = {}
+    with Path(path).open(encoding="utf-8") as f:
+        for line in f:
+            try:
+                record = json.loads(line)
+            except json.JSONDecodeError:
+                continue
+            if isinstance(record, dict) and record.get("cut"):
+                counts[record.get("task", "?")] = counts.get(record.get("task", "?"), 0) + 1
+    return counts
+
+
+def cut_warning(path: str | os.PathLike[str], max_new_tokens: int) -> str | None:
+    """One line for the user when replies were stopped by the budget (they score wrong as written), else None."""
+    counts = cut_replies(path)
+    if not counts:
+        return None
+    tasks = ", ".join(f"{t} {n}" for t, n in sorted(counts.items(), key=lambda kv: -kv[1]))
+    return (f"warning: {sum(counts.values())} replies in {path} hit the reply budget (--max-new-tokens, "
+            f"{max_new_tokens} now) before the model ended them ({tasks}); they are scored as written (no <answer>: "
+            f"wrong). Answer again with a larger --max-new-tokens into a new --out.")
 
 
 def _key_name(key: VideoKey, root: Path) -> str:
@@ -330,9 +370,9 @@ def _key_name(key: VideoKey, root: Path) -> str:
 
 
 def answer_with_model(model_dir: Path, bench: Path, info: Any, items: Sequence[QAItem], path: Path, *,
-                      batch_size: int = 32, max_new_tokens: int = 256, touch: str = "real", touch_seed: int = 0,
-                      video_cache: Path | None = None, progress: Callable[[int, int], None] | None = None,
-                      dtype: str | None = None) -> Path:
+                      batch_size: int = 32, max_new_tokens: int = REPLY_TOKENS, touch: str = "real",
+                      touch_seed: int = 0, video_cache: Path | None = None,
+                      progress: Callable[[int, int], None] | None = None, dtype: str | None = None) -> Path:
     """Answer ``items`` of the benchmark ``bench`` (``info``: its ``bench.json``) with the saved model in
     ``model_dir`` (its weights cast to ``dtype``) into ``path``, resuming it. The model is loaded only when an item
     is left to answer, so a finished file costs no model load (a re-run quickstart, a resumed evaluation)."""
@@ -348,8 +388,9 @@ def answer_with_model(model_dir: Path, bench: Path, info: Any, items: Sequence[Q
 
 
 def predict_split(model_dir: Path, bench: Path, split: str, out: Path, *, batch_size: int = 32,
-                  max_new_tokens: int = 256, limit: int | None = None, touch: str = "real", touch_seed: int = 0,
-                  video_cache: Path | None = None, dtype: str | None = None) -> tuple[list[QAItem], Path]:
+                  max_new_tokens: int = REPLY_TOKENS, limit: int | None = None, touch: str = "real",
+                  touch_seed: int = 0, video_cache: Path | None = None,
+                  dtype: str | None = None) -> tuple[list[QAItem], Path]:
     """Answer one split of a benchmark with a saved model into ``out``'s predictions file (resuming it), with a
     progress display; returns the items asked and the predictions path. ``video_cache``: a preprocessed-video
     folder to read and fill (a training run's), so that models answering the same clips decode them once.

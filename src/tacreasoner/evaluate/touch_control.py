@@ -137,13 +137,13 @@ def _device(model: Any) -> str:
 
 
 def run_touch_control(model_dir: Path, bench: Path, split: str, out: Path, *, limit: int | None = None,
-                      touch_seed: int = 0, mode: str = "strict", batch_size: int = 32, max_new_tokens: int = 256,
+                      touch_seed: int = 0, mode: str = "strict", batch_size: int = 32, max_new_tokens: int = 512,
                       video_cache: Path | None = None, device: str | None = None,
                       say: Callable[[str], None] = print) -> TouchControl:
     """Answer ``split``'s items (the first ``limit``; the shuffle draws from them) with real, blank and shuffled
     touch, score each run and make the table. Predictions resume under ``out``; the three runs share one video cache
     (default ``out/video_cache``)."""
-    from tacreasoner.evaluate.predict import load_trained, predict_items, predictions_path
+    from tacreasoner.evaluate.predict import cut_warning, load_trained, predict_items, predictions_path
     from tacreasoner.evaluate.report import evaluate, load_scored
     from tacreasoner.tasks.bench import load_bench
     from tacreasoner.train.data import bench_video_root
@@ -161,6 +161,8 @@ def run_touch_control(model_dir: Path, bench: Path, split: str, out: Path, *, li
         path = paths[touch] = predictions_path(out, split, touch)
         predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
                       max_new_tokens=max_new_tokens, video_cache=cache, touch=touch, touch_seed=touch_seed)
+        if (warning := cut_warning(path, max_new_tokens)) is not None:
+            say(warning)
         reports[touch] = evaluate(items, [path], mode, out / f"touch_{touch}")
         records[touch] = load_scored(reports[touch].files[f"scored:{path.stem}"])
         say(f"{touch}: Average {100 * reports[touch].average['value']:.1f}%")

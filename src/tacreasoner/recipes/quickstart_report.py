@@ -18,7 +18,7 @@ __all__ = ["QuickstartReport", "ask_one_test_clip", "evaluate_and_report", "eval
 
 
 def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tuple[str, ...] = ("test",), *,
-                   batch_size: int = 48, max_new_tokens: int = 256, video_cache: Path | None = None,
+                   batch_size: int = 48, max_new_tokens: int = 512, video_cache: Path | None = None,
                    dtype: str | None = None,
                    progress: Callable[[str], Callable[[int, int], None]] | None = None) -> dict[str, Any]:
     """Answer each split with each seed's model (weights cast to ``dtype``); one report per split (mean ± std over
@@ -88,6 +88,23 @@ def results_table(report: Any, baselines: dict[str, dict[str, float]]) -> tuple[
     return lines, verdict
 
 
+def _cut_lines(evaluation: Path, reports: dict[str, Any], max_new_tokens: int) -> list[str]:
+    """A warning line per split whose replies the reply budget stopped (scored wrong as written); none when none."""
+    from tacreasoner.evaluate.predict import cut_replies
+
+    lines = []
+    for split in reports:
+        counts: dict[str, int] = {}
+        for path in sorted((evaluation / split / "predictions").glob("seed*.jsonl")):
+            for task, n in cut_replies(path).items():
+                counts[task] = counts.get(task, 0) + n
+        if counts:
+            lines += [f"**Warning** (`{split}`): {sum(counts.values())} replies stopped at the {max_new_tokens}-token "
+                      f"budget (`evaluate.max_new_tokens`) before the model ended them, scored wrong as written: "
+                      + ", ".join(f"{t} {n}" for t, n in sorted(counts.items())) + ".", ""]
+    return lines
+
+
 def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings: dict[str, Any], *,
                         batch_size: int = 48, max_new_tokens: int = 64, dtype: str | None = None,
                         progress: Callable[[str], Callable[[int, int], None]] | None = None) -> QuickstartReport:
@@ -126,7 +143,8 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
         summary.append(f"{split}: Average {100 * report.average['value']:.1f}% over {len(report.tasks)} tasks; "
                        + ("every task above chance (Wilson lower bound)" if not weak else
                           f"not above chance: {', '.join(weak)}"))
-    lines += ["Per-item predictions: `eval/<split>/predictions/seed*.jsonl`; full reports with plots: "
+    cut = _cut_lines(paths.evaluation, reports, max_new_tokens)
+    lines += [*cut, "Per-item predictions: `eval/<split>/predictions/seed*.jsonl`; full reports with plots: "
               "`eval/<split>/report.md`.", ""]
     path = paths.root / "report.md"
     path.write_text("\n".join(lines), encoding="utf-8")

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from tacreasoner.data.cues import detect_phases, frame_signals
+from tacreasoner.evaluate.predict import REPLY_TOKENS
 from tacreasoner.serve.engine import Prompt, Reply, RequestError, Sampling, TactileEngine, check_clip_length
 from tacreasoner.serve.media import MediaLimits
 from tacreasoner.serve.stream import Delta
@@ -194,7 +195,7 @@ class DemoCallbacks:
     values of its outputs; a user's mistake (:data:`USER_ERRORS`) goes to ``warn`` (``gr.Warning``: a message on the
     page) and one log line instead of a traceback, and leaves the views empty."""
 
-    def __init__(self, engine: TactileEngine, examples: dict[str, Path], *, max_new_tokens: int = 256,
+    def __init__(self, engine: TactileEngine, examples: dict[str, Path], *, max_new_tokens: int = REPLY_TOKENS,
                  max_frames: int = MediaLimits().max_frames, warn: Callable[[str], Any] | None = None) -> None:
         import gradio as gr
 
@@ -279,7 +280,7 @@ class DemoCallbacks:
             yield "", "", f"**{self._fail(exc)}**"
 
 
-def build_demo(engine: TactileEngine, examples: dict[str, Path], *, max_new_tokens: int = 256) -> Any:
+def build_demo(engine: TactileEngine, examples: dict[str, Path], *, max_new_tokens: int = REPLY_TOKENS) -> Any:
     """The gradio Blocks app (``.launch()`` it)."""
     os.environ.setdefault("GRADIO_ANALYTICS_ENABLED", "False")
     import gradio as gr

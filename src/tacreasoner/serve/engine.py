@@ -29,6 +29,7 @@ import torch
 from transformers import StoppingCriteria, StoppingCriteriaList
 from transformers.generation.streamers import BaseStreamer
 
+from tacreasoner.evaluate.predict import REPLY_TOKENS
 from tacreasoner.serve.stream import Delta, ReasoningSplitter, StopMatcher, split_channels
 from tacreasoner.tasks.schema import PLACEHOLDER
 
@@ -64,7 +65,7 @@ class Sampling:
     """How to decode. ``temperature`` 0 is greedy (the default: answers are reproducible); ``seed`` makes sampling
     reproducible too."""
 
-    max_new_tokens: int = 256
+    max_new_tokens: int = REPLY_TOKENS
     temperature: float = 0.0
     top_p: float = 1.0
     seed: int | None = None

@@ -27,6 +27,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
+from tacreasoner.evaluate.predict import REPLY_TOKENS
 from tacreasoner.serve.engine import DecodeTimeout, Reply, RequestError, Sampling, TactileEngine
 from tacreasoner.serve.media import MediaLimits, messages_to_prompt
 from tacreasoner.serve.scheduler import Busy, Scheduler
@@ -81,7 +82,7 @@ class ChatRequest(BaseModel):
             value = getattr(self, name)
             if value is not None and value < 1:
                 raise RequestError(f"{name} must be at least 1, got {value}", param=name)
-        longest = next((v for v in (self.max_completion_tokens, self.max_tokens) if v is not None), 256)
+        longest = next((v for v in (self.max_completion_tokens, self.max_tokens) if v is not None), REPLY_TOKENS)
         return Sampling(max_new_tokens=longest,
                         temperature=0.0 if self.temperature is None else self.temperature,
                         top_p=1.0 if self.top_p is None else self.top_p, seed=self.seed, stop=tuple(stop))
