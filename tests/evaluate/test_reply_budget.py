@@ -95,3 +95,20 @@ def test_evaluate_tells_the_user_when_replies_were_cut(model_dir: Path, bench: P
     result = CliRunner().invoke(app, [*base, "--out", str(tmp_path / "short"), "--max-new-tokens", "2"])
     assert result.exit_code == 0, result.output
     assert "warning: 2 replies" in result.output and "--max-new-tokens" in result.output
+
+
+def test_every_answering_entry_point_defaults_to_the_same_budget() -> None:
+    import inspect
+
+    from tacreasoner.cli.evaluate import evaluate_cmd, evaluate_physiclear_cmd
+    from tacreasoner.cli.serve import ask
+    from tacreasoner.evaluate.physiclear import evaluate_folder
+    from tacreasoner.evaluate.predict import answer_with_model, predict_split
+    from tacreasoner.evaluate.touch_control import run_touch_control
+    from tacreasoner.recipes.quickstart_report import evaluate_seeds
+    from tacreasoner.serve.engine import Sampling
+
+    for entry in (evaluate_cmd, evaluate_physiclear_cmd, ask, evaluate_folder, answer_with_model, predict_split,
+                  run_touch_control, evaluate_seeds, predict_items):
+        assert inspect.signature(entry).parameters["max_new_tokens"].default == REPLY_TOKENS, entry.__name__
+    assert Sampling().max_new_tokens == REPLY_TOKENS
