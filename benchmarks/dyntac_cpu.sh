@@ -8,6 +8,8 @@
 #   JOBS   variant:seed pairs in order, e.g. "rec:1 no_dyn:0 no_qcond:0 cot:0" (default: all, seeds 0-2)
 #   DRY    a dry run's settings, e.g. DRY="--set stage1.steps=2 --set stage2.steps=2" LIMIT="--limit 8"
 #   HELDOUT=1  also score val asked in held-out wordings (paraphrase-bench, built once): eval/<v>.seed<S>/val_heldout
+#   TR_EVAL  the command that answers (default: TR), e.g. training pinned by PYTHONPATH to another checkout while
+#          answering uses this one's evaluation (which records the replies the reply budget cut)
 #   EXTRA  more settings for every training, e.g. EXTRA="--set data.paraphrases=false --set runtime.threads=2"
 #          (the recipe before data.paraphrases shipped; threads fixed instead of read from the load at each start)
 # Variants: rec (the shipped config), no_dyn (use_temporal=false), no_qcond (question_conditioning=false), cot
@@ -24,6 +26,7 @@ set -eu
 Q=${Q:-runs/quickstart}
 OUT=${OUT:-runs/dyntac_cpu}
 TR=${TR:-tacreasoner}
+TR_EVAL=${TR_EVAL:-$TR}
 CONFIG=${CONFIG:-quickstart-smollm2-cpu}
 DRY=${DRY:-}
 EXTRA=${EXTRA:-}
@@ -68,7 +71,7 @@ score() {  # score VARIANT SEED MAX_NEW_TOKENS [MODEL]: val, and with HELDOUT=1 
         [ -e "$out/report.json" ] && continue
         say "$v seed $s: answering val ($wording wordings)"
         # shellcheck disable=SC2086
-        $TR evaluate --model "$model" --bench "$bench" --split val --out "$out" \
+        $TR_EVAL evaluate --model "$model" --bench "$bench" --split val --out "$out" \
             --batch-size 48 --max-new-tokens "$3" --video-cache "$Q/video_cache" $LIMIT \
             >> "$OUT/logs/$v.seed$s.eval.log" 2>&1 || { say "FAILED: $OUT/logs/$v.seed$s.eval.log"; return 1; }
     done
