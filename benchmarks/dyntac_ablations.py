@@ -4,7 +4,8 @@ folders that benchmarks/dyntac_gpu.sh leaves (``eval/<variant>.seed<S>/<split>/s
 Writes ``benchmarks/results/<name>.{md,json}``: the recipe over its seeds on val (and on test, scored once, when
 its test folders exist), then one row per ablation: Average mean ± std over seeds, its difference to the recipe,
 and per seed an exact McNemar test on the same val items (the ablation and the recipe share the seed); per task;
-and the answer form (replies in the asked form, and accuracy on those items beside the recipe's on the same items).
+and the answer form (replies in the asked form, replies the reply budget cut where the predictions record it, and
+accuracy on the items answered in form beside the recipe's on the same items).
 
     python benchmarks/dyntac_ablations.py --run /tmp/dyntac_gpu --name dyntac_ablations_val \\
         --machine "one lent H100" --notes "..."
@@ -21,6 +22,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, pct, pm, publish, stamp
+from tacreasoner.evaluate.predict import cut_replies
 from tacreasoner.evaluate.report import compare_runs, load_scored, summarize
 
 RECIPE = "rec"
@@ -109,9 +111,23 @@ def per_task_table(recipe: dict[int, list[dict]], scored: dict[str, dict[int, li
     return md_table(["task", "recipe", *others], rows)
 
 
-def form_table(recipe: dict[int, list[dict]], scored: dict[str, dict[int, list[dict]]]) -> tuple[str, dict]:
-    """Per variant, the share of replies in the asked form and, on the items it answered in form, its accuracy beside
-    the recipe's on the same items: does a variant lose on what it reads, or only on how it answers?"""
+def cut_share(run: Path, variant: str, seed: int, split: str = "val") -> float | None:
+    """The share of a scored run's replies that the reply budget stopped before the model ended them; None where its
+    predictions do not record it (answered before evaluation recorded cuts)."""
+    files = sorted((run / "eval" / f"{variant}.seed{seed}" / split / "predictions").glob("*.jsonl"))
+    if len(files) != 1:
+        return None
+    lines = files[0].read_text(encoding="utf-8").splitlines()
+    if not lines or not any('"cut":' in line for line in lines):
+        return None
+    return sum(cut_replies(files[0]).values()) / len(lines)
+
+
+def form_table(recipe: dict[int, list[dict]], scored: dict[str, dict[int, list[dict]]],
+               run: Path | None = None) -> tuple[str, dict]:
+    """Per variant, the share of replies in the asked form, the share the reply budget cut (where recorded) and, on
+    the items it answered in form, its accuracy beside the recipe's on the same items: does a variant lose on what it
+    reads, or only on how it answers?"""
     rows, payload = [], {}
     for variant, runs in scored.items():
         if not runs:
@@ -121,13 +137,15 @@ def form_table(recipe: dict[int, list[dict]], scored: dict[str, dict[int, list[d
             base = {r["id"]: r["correct"] for r in recipe[s]}
             read = [r for r in recs if not r["parse_failed"] and r["id"] in base]
             per_seed.append({"seed": s, "in_form": len(read) / len(recs), "items": len(read),
+                             "cut": None if run is None else cut_share(run, variant, s),
                              "variant": sum(r["correct"] for r in read) / max(len(read), 1),
                              "recipe": sum(base[r["id"]] for r in read) / max(len(read), 1)})
         payload[variant] = per_seed
         rows.append([variant, " / ".join(pct(p["in_form"]) for p in per_seed),
+                     " / ".join("not recorded" if p["cut"] is None else pct(p["cut"]) for p in per_seed),
                      " / ".join(f"{pct(p['variant'])} vs {pct(p['recipe'])} (n {p['items']})" for p in per_seed)])
-    return md_table(["variant", "replies in the asked form, per seed", "accuracy on those items: variant vs "
-                     "recipe, per seed"], rows), payload
+    return md_table(["variant", "replies in the asked form, per seed", "replies cut by the reply budget, per seed",
+                     "accuracy on those items: variant vs recipe, per seed"], rows), payload
 
 
 def main() -> None:
@@ -183,9 +201,10 @@ def main() -> None:
     md += ("\n## Per task on val\n\nMean over seeds (the variant minus the recipe, points); a task's n is in the "
            "recipe's table above, so one item of 75 is 1.3 points of one seed.\n\n")
     md += per_task_table(recipe, scored)
-    table, payload["answer_form"] = form_table(recipe, scored)
-    md += ("\n## Answer form on val\n\nA reply outside the asked form scores wrong under strict extraction. Where "
-           "a variant answers in form, does it read the touch as well as the recipe does on the same items?\n\n"
+    table, payload["answer_form"] = form_table(recipe, scored, args.run)
+    md += ("\n## Answer form on val\n\nA reply outside the asked form scores wrong under strict extraction; so "
+           "does one the reply budget (`--max-new-tokens`) stopped before the model ended it. Where a variant "
+           "answers in form, does it read the touch as well as the recipe does on the same items?\n\n"
            + table)
     publish(args.name, payload, md, args.out_dir)
 

@@ -1,5 +1,6 @@
 """benchmarks/dyntac_ablations.py run as a user runs it, on hand-made score records: the paired verdict and the
-answer-form table (share of replies in the asked form; accuracy on those items beside the recipe's)."""
+answer-form table (share of replies in the asked form; share cut by the reply budget where the predictions record
+it; accuracy on those items beside the recipe's)."""
 
 from __future__ import annotations
 
@@ -17,6 +18,15 @@ def _write(run: Path, variant: str, seed: int, records: list[dict]) -> None:
     (folder / "val.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records), encoding="utf-8")
 
 
+def _predictions(run: Path, variant: str, seed: int, cut: list[bool] | None) -> None:
+    """The predictions file beside the scored one; ``cut`` None: written before evaluation recorded cuts."""
+    folder = run / "eval" / f"{variant}.seed{seed}" / "val" / "predictions"
+    folder.mkdir(parents=True)
+    lines = [{"id": f"item-{i}", "task": "TFA-hardness", "prediction": ""} | ({} if cut is None else {"cut": c})
+             for i, c in enumerate(cut or [False] * 80)]
+    (folder / "val.jsonl").write_text("".join(json.dumps(r) + "\n" for r in lines), encoding="utf-8")
+
+
 def _records(correct: list[bool], unreadable: set[int] = frozenset()) -> list[dict]:
     return [{"id": f"item-{i}", "task": "TFA-hardness", "correct": ok and i not in unreadable,
              "parse_failed": i in unreadable, "chance": 1 / 3} for i, ok in enumerate(correct)]
@@ -28,6 +38,8 @@ def test_a_variant_that_answers_out_of_form_is_lower_and_its_readable_items_are_
         _write(run, "rec", seed, _records([True] * 60 + [False] * 20))
         # half the replies out of form; on the other half right as often as the recipe on those items
         _write(run, "cot", seed, _records([True] * 60 + [False] * 20, unreadable=set(range(0, 80, 2))))
+    _predictions(run, "cot", 0, [i % 4 == 0 for i in range(80)])  # 20 of the 40 out-of-form replies were cut
+    _predictions(run, "cot", 1, None)
     done = subprocess.run([sys.executable, str(SCRIPT), "--run", str(run), "--name", "t", "--out-dir", str(out),
                            "--variant", "cot=TouchCoT"], capture_output=True, text=True, check=False)
     assert done.returncode == 0, done.stderr
@@ -37,4 +49,6 @@ def test_a_variant_that_answers_out_of_form_is_lower_and_its_readable_items_are_
     assert [f["in_form"] for f in form] == [0.5, 0.5]
     assert [f["items"] for f in form] == [40, 40]
     assert all(f["variant"] == f["recipe"] == 0.75 for f in form)
-    assert "## Answer form on val" in (out / "t.md").read_text(encoding="utf-8")
+    assert [f["cut"] for f in form] == [0.25, None]
+    md = (out / "t.md").read_text(encoding="utf-8")
+    assert "## Answer form on val" in md and "| cot | 50.0 / 50.0 | 25.0 / not recorded |" in md
