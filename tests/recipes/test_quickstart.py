@@ -118,17 +118,18 @@ def test_evaluate_and_report_writes_tables_verdicts_and_publishes_the_model(trai
 def test_the_report_warns_of_replies_the_budget_cut(tmp_path: Path) -> None:
     from tacreasoner.recipes.quickstart_report import _cut_lines
 
-    for seed, cut in ((0, [True, False]), (1, [True, True])):
-        path = tmp_path / "test" / "predictions" / f"seed{seed}.jsonl"
+    # seed0.stale.jsonl: answers set aside (another model or benchmark version), not this report's
+    for name, cut in (("seed0", [True, False]), ("seed1", [True, True]), ("seed0.stale", [True, True])):
+        path = tmp_path / "test" / "predictions" / f"{name}.jsonl"
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text("".join(json.dumps({"id": f"i{k}", "task": ["OSC", "SFD"][k], "prediction": "", "cut": c})
                                 + "\n" for k, c in enumerate(cut)))
-    lines = _cut_lines(tmp_path, {"test": None}, 64)
+    lines = _cut_lines(tmp_path, ["test"], [0, 1], 64)
     assert lines[0].startswith("**Warning** (`test`): 3 replies stopped at the 64-token budget")
     assert lines[0].endswith("OSC 2, SFD 1.")
-    for path in (tmp_path / "test" / "predictions").glob("*.jsonl"):
+    for path in (tmp_path / "test" / "predictions").glob("seed?.jsonl"):
         path.write_text(path.read_text().replace('"cut": true', '"cut": false'))
-    assert _cut_lines(tmp_path, {"test": None}, 64) == []
+    assert _cut_lines(tmp_path, ["test"], [0, 1], 64) == []
 
 
 def test_ask_one_test_clip_prints_a_command_that_can_be_pasted(trained_run, monkeypatch) -> None:

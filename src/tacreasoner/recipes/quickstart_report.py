@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 import shutil
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -88,15 +88,16 @@ def results_table(report: Any, baselines: dict[str, dict[str, float]]) -> tuple[
     return lines, verdict
 
 
-def _cut_lines(evaluation: Path, reports: dict[str, Any], max_new_tokens: int) -> list[str]:
-    """A warning line per split whose replies the reply budget stopped (scored wrong as written); none when none."""
+def _cut_lines(evaluation: Path, splits: Iterable[str], seeds: Sequence[int], max_new_tokens: int) -> list[str]:
+    """A warning line per split whose replies the reply budget stopped (scored wrong as written); none when none.
+    Only the seeds' current files are read (not the ``.stale`` ones set aside)."""
     from tacreasoner.evaluate.predict import cut_replies
 
     lines = []
-    for split in reports:
+    for split in splits:
         counts: dict[str, int] = {}
-        for path in sorted((evaluation / split / "predictions").glob("seed*.jsonl")):
-            for task, n in cut_replies(path).items():
+        for seed in seeds:
+            for task, n in cut_replies(evaluation / split / "predictions" / f"seed{seed}.jsonl").items():
                 counts[task] = counts.get(task, 0) + n
         if counts:
             lines += [f"**Warning** (`{split}`): {sum(counts.values())} replies stopped at the {max_new_tokens}-token "
@@ -143,7 +144,7 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
         summary.append(f"{split}: Average {100 * report.average['value']:.1f}% over {len(report.tasks)} tasks; "
                        + ("every task above chance (Wilson lower bound)" if not weak else
                           f"not above chance: {', '.join(weak)}"))
-    cut = _cut_lines(paths.evaluation, reports, max_new_tokens)
+    cut = _cut_lines(paths.evaluation, reports, sorted(models), max_new_tokens)
     lines += [*cut, "Per-item predictions: `eval/<split>/predictions/seed*.jsonl`; full reports with plots: "
               "`eval/<split>/report.md`.", ""]
     path = paths.root / "report.md"
