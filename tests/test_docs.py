@@ -20,6 +20,49 @@ def test_relative_links_point_to_existing_files(page: Path) -> None:
     assert not missing, f"{page.relative_to(ROOT)} links to missing files: {missing}"
 
 
+ANCHOR_LINK = re.compile(r"\]\(([^)#\s]*)#([^)\s]+)\)")
+
+
+def heading_anchors(page: Path) -> set[str]:
+    """The anchors GitHub gives a page's headings: lower case, punctuation dropped, spaces to hyphens, repeats
+    numbered; headings inside code fences are not headings."""
+    anchors: set[str] = set()
+    seen: dict[str, int] = {}
+    in_fence = False
+    for line in page.read_text(encoding="utf-8").splitlines():
+        if line.startswith("```"):
+            in_fence = not in_fence
+        heading = None if in_fence else re.match(r"#{1,6}\s+(.*)", line)
+        if heading:
+            slug = re.sub(r"[^\w\- ]", "", heading.group(1).strip().lower()).replace(" ", "-")
+            anchors.add(slug if slug not in seen else f"{slug}-{seen[slug]}")
+            seen[slug] = seen.get(slug, 0) + 1
+    return anchors
+
+
+def test_heading_anchors_are_read_as_github_makes_them(tmp_path: Path) -> None:
+    page = tmp_path / "p.md"
+    page.write_text("# The quickstart on SmolLM2 (2026-11-27 to 28)\n## Notes\n```bash\n# not a heading\n```\n"
+                    "## Notes\n", encoding="utf-8")
+    assert heading_anchors(page) == {"the-quickstart-on-smollm2-2026-11-27-to-28", "notes", "notes-1"}
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)
+def test_links_to_a_section_name_one_that_exists(page: Path) -> None:
+    """Sections move between pages (docs/training.md's diary went to history.md): a dead anchor lands on the page's
+    top, and the reader never finds what the sentence cites."""
+    text = page.read_text(encoding="utf-8")
+    dead = []
+    for match in ANCHOR_LINK.finditer(text):
+        target, anchor = match.groups()
+        if re.match(r"[a-z]+:", target):
+            continue
+        linked = page.parent / target if target else page
+        if linked.suffix == ".md" and linked.exists() and anchor not in heading_anchors(linked):
+            dead.append(f"{target}#{anchor}")
+    assert not dead, f"{page.relative_to(ROOT)} links to sections that do not exist: {dead}"
+
+
 def test_the_readme_opens_with_the_two_set_up_commands() -> None:
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     block = text[text.index("```bash\n") + 8:]
