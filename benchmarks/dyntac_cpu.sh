@@ -11,6 +11,9 @@
 #   TR_EVAL  the command that answers (default: TR), e.g. training pinned by PYTHONPATH to another checkout while
 #          answering uses this one's evaluation (which records the replies the reply budget cut)
 #   EXTRA  more settings for every training, e.g. EXTRA="--set data.paraphrases=false --set runtime.threads=2"
+#   ARCHIVE  a .tgz rewritten after every scored run with what a table needs (scored predictions, reports, run
+#          records, chains.log), e.g. benchmarks/results/<name>_inputs/scored.tgz: commit it as seeds finish, so
+#          that losing the machine loses no finished run (a machine shut down mid-chain took the run folder once)
 #          (the recipe before data.paraphrases shipped; threads fixed instead of read from the load at each start)
 # Variants: rec (the shipped config), no_dyn (use_temporal=false), no_qcond (question_conditioning=false), cot
 # (Stage II on TouchCoT from rec's Stage I of the seed, built once with the offline rules teacher), no_stage1
@@ -31,6 +34,7 @@ CONFIG=${CONFIG:-quickstart-smollm2-cpu}
 DRY=${DRY:-}
 EXTRA=${EXTRA:-}
 LIMIT=${LIMIT:-}
+ARCHIVE=${ARCHIVE:-}
 read -r -a JOBS <<< "${JOBS:-rec:1 rec:2 no_dyn:0 no_qcond:0 no_dyn:1 no_qcond:1 no_dyn:2 no_qcond:2 cot:0 cot:1 cot:2}"
 declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
                  [no_qcond]="--set model.encoder.question_conditioning=false"
@@ -74,7 +78,16 @@ score() {  # score VARIANT SEED MAX_NEW_TOKENS [MODEL]: val, and with HELDOUT=1 
         $TR_EVAL evaluate --model "$model" --bench "$bench" --split val --out "$out" \
             --batch-size 48 --max-new-tokens "$3" --video-cache "$Q/video_cache" $LIMIT \
             >> "$OUT/logs/$v.seed$s.eval.log" 2>&1 || { say "FAILED: $OUT/logs/$v.seed$s.eval.log"; return 1; }
+        pack
     done
+}
+
+pack() {  # with ARCHIVE: every scored run so far (eval/ follows its links, so rec seed 0's answers are in it)
+    [ -n "$ARCHIVE" ] || return 0
+    local dest; dest=$(realpath -m "$ARCHIVE") && mkdir -p "$(dirname "$dest")" || return 1
+    (cd "$OUT" && shopt -s nullglob && have=() && for p in chains.log eval/*/*/report.json eval/*/*/predictions \
+        eval/*/*/scored runs/*/stage*/run.json; do [ -e "$p" ] && have+=("$p"); done
+     tar czhf "$dest.part" "${have[@]}") && mv "$dest.part" "$dest"
 }
 
 link_quickstart_seed0() {  # the quickstart's own seed-0 run is rec.seed0: same config, same data
@@ -96,11 +109,14 @@ touchcot() {  # the TouchCoT train file for cot, built once (offline rules teach
     $TR build-cot --bench "$Q/bench" --out "$OUT/touchcot" --teacher rules >> "$OUT/logs/touchcot.log" 2>&1 || return 1
 }
 
-link_quickstart_seed0
-for job in "${JOBS[@]}"; do
+for job in "${JOBS[@]}"; do  # every entry checked before any work: a typo at the end must not wait hours to fail
     v=${job%:*} s=${job#*:}
     [[ -v "SETS[$v]" && $s =~ ^[0-9]+$ ]] || { echo "error: JOBS entry '$job': expected VARIANT:SEED with VARIANT" \
         "one of ${!SETS[*]}" >&2; exit 2; }
+done
+link_quickstart_seed0
+for job in "${JOBS[@]}"; do
+    v=${job%:*} s=${job#*:}
     if [ "$v" = no_stage2 ]; then  # no training: the recipe's Stage I model of the seed answers
         train rec "$s" 1 && score "$v" "$s" 64 "$OUT/runs/rec.seed$s/stage1/model" || exit 1
     elif [ "$v" = no_stage1 ]; then
