@@ -41,8 +41,10 @@ def test_quickstart_settings_ship_with_the_package_and_name_the_recommended_mode
 
 
 def test_quickstart_stages_follow_the_data_flow(tmp_path: Path) -> None:
-    names = [stage.name for stage in quickstart_stages(QuickstartRun(tmp_path / "qs"))]
+    stages = quickstart_stages(QuickstartRun(tmp_path / "qs"))
+    names = [stage.name for stage in stages]
     assert names == ["simulate", "preview", "benchmark", "baselines", "llm", "encoder", "train", "evaluate", "ask"]
+    assert any(word in stages[6].purpose for word in ("bf16", "float32"))  # said before the long wait, not after
     data_only = [stage.name for stage in quickstart_stages(QuickstartRun(tmp_path / "qs", train=False))]
     assert data_only == names[:4]
 
@@ -89,6 +91,8 @@ def test_evaluate_and_report_writes_tables_verdicts_and_publishes_the_model(trai
     report = evaluate_and_report(paths, {0: paths.train(0) / "stage2" / "model"}, {"seed0": {"stage2": 1.0}})
     text = report.path.read_text()
     assert "Held-out test objects (`test`)" in text and "held-out sensor style" in text
+    precision = json.loads((paths.train(0) / "stage2" / "run.json").read_text())["mixed_precision"]
+    assert f"trained in {'float32' if precision == 'no' else 'bf16 autocast'};" in text  # timings depend on it
     assert "| **Average** |" in text and "Beats chance" in text
     data = json.loads((root / "report.json").read_text())
     assert set(data["splits"]) == {"test", "test_heldout_sensor"}

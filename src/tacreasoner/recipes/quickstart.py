@@ -131,6 +131,10 @@ def quickstart_stages(run: QuickstartRun, settings: QuickstartSettings | None = 
     if not run.train:
         return stages
     seeds = [run.seed + k for k in range(run.seeds)]
+    from tacreasoner.train.precision import describe_precision  # imports torch: only where training follows
+
+    precision = describe_precision(quickstart_config(paths, seeds[0], run.config or settings.train_config,
+                                                     run.overrides).runtime.mixed_precision)
     trained: dict[int, Path] = {}
     timings: dict[str, Any] = {}
 
@@ -166,7 +170,8 @@ def quickstart_stages(run: QuickstartRun, settings: QuickstartSettings | None = 
         Stage("llm", llm_source, lambda: parts.llm(paths, settings.llm, given=run.llm is not None)),
         Stage("encoder", f"appearance encoder: EfficientNet-Lite0's ImageNet weights (frozen) → {paths.encoder}",
               lambda: parts.encoder(paths, settings.encoder)),
-        Stage("train", f"Stage I (alignment) + Stage II (LoRA SFT), seeds {seeds} → {run.out / 'train'}", train_all),
+        Stage("train", f"Stage I (alignment) + Stage II (LoRA SFT), seeds {seeds}, {precision} → {run.out / 'train'}",
+              train_all),
         Stage("evaluate", f"held-out test objects, strict answer extraction → {paths.evaluation}", evaluate_all),
         Stage("ask", "one held-out test clip, answered by the trained model", ask),
     ]

@@ -106,6 +106,18 @@ def _cut_lines(evaluation: Path, splits: Iterable[str], seeds: Sequence[int], ma
     return lines
 
 
+def _precision_note(models: dict[int, Path]) -> str:
+    """How the seeds trained (each final stage's run.json): timings differ several-fold between bf16 and float32."""
+    names = {"bf16": "bf16 autocast", "fp16": "fp16 autocast", "no": "float32"}
+    found = set()
+    for model in models.values():
+        try:
+            found.add(json.loads((Path(model).parent / "run.json").read_text(encoding="utf-8"))["mixed_precision"])
+        except (OSError, ValueError, KeyError, TypeError):
+            return ""  # not recorded (a model trained elsewhere): say nothing rather than guess
+    return f", trained in {' and '.join(names.get(p, str(p)) for p in sorted(found))}" if found else ""
+
+
 def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings: dict[str, Any], *,
                         batch_size: int = 48, max_new_tokens: int = 64, dtype: str | None = None,
                         progress: Callable[[str], Callable[[int, int], None]] | None = None) -> QuickstartReport:
@@ -125,7 +137,7 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
              f"- Machine: {machine_line()}",
              "- Command: `tacreasoner quickstart`",
              f"- Seeds: {sorted(models)} (Stage I + Stage II trained per seed); training seconds per seed: "
-             f"{json.dumps(timings)}; evaluation {eval_seconds} s",
+             f"{json.dumps(timings)}{_precision_note(models)}; evaluation {eval_seconds} s",
              "", "DynTAC-Sim-Bench is simulated: the project's stand-in for the paper's DynTAC-Bench, not its data. "
              "No val or test clip was seen in any training: the appearance encoder holds ImageNet weights "
              "(EfficientNet-Lite0) and trained on no tactile clip; Stages I and II read only train objects. "

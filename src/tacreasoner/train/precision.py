@@ -6,7 +6,7 @@ from pathlib import Path
 
 import torch
 
-__all__ = ["bf16_supported", "resolve_mixed_precision"]
+__all__ = ["bf16_supported", "describe_precision", "resolve_mixed_precision"]
 
 
 def resolve_mixed_precision(setting: str) -> str:
@@ -16,6 +16,20 @@ def resolve_mixed_precision(setting: str) -> str:
     if torch.cuda.is_available():
         return "bf16" if torch.cuda.is_bf16_supported() else "no"
     return "bf16" if bf16_supported() else "no"
+
+
+def describe_precision(setting: str) -> str:
+    """How a run with ``runtime.mixed_precision: setting`` computes, in words for the person waiting on it: a CPU
+    without native bf16 trains in float32, several times slower than the timings the docs give for one with it."""
+    resolved = resolve_mixed_precision(setting)
+    gpu = torch.cuda.is_available()
+    where = "the GPU" if gpu else "this CPU"
+    if resolved == "no" and setting == "auto" and not gpu:
+        return ("float32: this CPU lists no native bf16 (avx512_bf16, amx_bf16), so training runs several times "
+                "slower than on one that has it (docs/training.md)")
+    if resolved == "no":
+        return f"float32 on {where}"
+    return f"{resolved} autocast on {where}" + (" (native bf16)" if setting == "auto" else "")
 
 
 def bf16_supported(cpuinfo: str | None = None) -> bool:
