@@ -21,7 +21,7 @@ def test_an_explicit_setting_is_kept_and_auto_is_resolved() -> None:
 
 
 def test_a_user_is_told_when_a_cpu_without_native_bf16_trains_in_float32(monkeypatch) -> None:
-    """The quickstart's timings are for a CPU with bf16; one without trains in float32, several times slower."""
+    """The quickstart's timings are for a CPU with bf16; one without trains in float32, about 2x slower."""
     from tacreasoner.train import precision
 
     monkeypatch.setattr(precision.torch.cuda, "is_available", lambda: False)

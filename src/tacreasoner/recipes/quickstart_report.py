@@ -107,7 +107,7 @@ def _cut_lines(evaluation: Path, splits: Iterable[str], seeds: Sequence[int], ma
 
 
 def _precision_note(models: dict[int, Path]) -> str:
-    """How the seeds trained (each final stage's run.json): timings differ several-fold between bf16 and float32."""
+    """How the seeds trained (each final stage's run.json): timings are not comparable across precisions."""
     names = {"bf16": "bf16 autocast", "fp16": "fp16 autocast", "no": "float32"}
     found = set()
     for model in models.values():
