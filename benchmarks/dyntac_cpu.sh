@@ -11,10 +11,10 @@
 #   TR_EVAL  the command that answers (default: TR), e.g. training pinned by PYTHONPATH to another checkout while
 #          answering uses this one's evaluation (which records the replies the reply budget cut)
 #   EXTRA  more settings for every training, e.g. EXTRA="--set data.paraphrases=false --set runtime.threads=2"
+#          (the recipe before data.paraphrases shipped; threads fixed instead of read from the load at each start)
 #   ARCHIVE  a .tgz rewritten after every scored run with what a table needs (scored predictions, reports, run
 #          records, chains.log), e.g. benchmarks/results/<name>_inputs/scored.tgz: commit it as seeds finish, so
 #          that losing the machine loses no finished run (a machine shut down mid-chain took the run folder once)
-#          (the recipe before data.paraphrases shipped; threads fixed instead of read from the load at each start)
 # Variants: rec (the shipped config), no_dyn (use_temporal=false), no_qcond (question_conditioning=false), cot
 # (Stage II on TouchCoT from rec's Stage I of the seed, built once with the offline rules teacher), no_stage1
 # (stage1.skip=true: Stage II from the untrained projector), no_stage2 (rec's Stage I model answers); and a recipe
