@@ -108,14 +108,15 @@ def _cut_lines(evaluation: Path, splits: Iterable[str], seeds: Sequence[int], ma
 
 def _precision_note(models: dict[int, Path]) -> str:
     """How the seeds trained (each final stage's run.json): timings are not comparable across precisions."""
-    names = {"bf16": "bf16 autocast", "fp16": "fp16 autocast", "no": "float32"}
+    from tacreasoner.train.precision import PRECISION_NAMES  # imports torch: only when a report is written
+
     found = set()
     for model in models.values():
         try:
             found.add(json.loads((Path(model).parent / "run.json").read_text(encoding="utf-8"))["mixed_precision"])
         except (OSError, ValueError, KeyError, TypeError):
             return ""  # not recorded (a model trained elsewhere): say nothing rather than guess
-    return f", trained in {' and '.join(names.get(p, str(p)) for p in sorted(found))}" if found else ""
+    return f", trained in {' and '.join(PRECISION_NAMES.get(p, str(p)) for p in sorted(found))}" if found else ""
 
 
 def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings: dict[str, Any], *,

@@ -6,7 +6,10 @@ from pathlib import Path
 
 import torch
 
-__all__ = ["bf16_supported", "describe_precision", "resolve_mixed_precision"]
+__all__ = ["PRECISION_NAMES", "bf16_supported", "describe_precision", "resolve_mixed_precision"]
+
+# A resolved ``runtime.mixed_precision`` (Accelerate's value) in words, for messages and reports
+PRECISION_NAMES = {"bf16": "bf16 autocast", "fp16": "fp16 autocast", "no": "float32"}
 
 
 def resolve_mixed_precision(setting: str) -> str:
@@ -27,9 +30,8 @@ def describe_precision(setting: str) -> str:
     if resolved == "no" and setting == "auto" and not gpu:
         return ("float32: this CPU lists no native bf16 (avx512_bf16, amx_bf16), so training takes longer than "
                 "the documented timings (about 2x on the 2-core CPUs measured, docs/training.md)")
-    if resolved == "no":
-        return f"float32 on {where}"
-    return f"{resolved} autocast on {where}" + (" (native bf16)" if setting == "auto" else "")
+    native = " (native bf16)" if resolved == "bf16" and setting == "auto" else ""
+    return f"{PRECISION_NAMES.get(resolved, resolved)} on {where}{native}"
 
 
 def bf16_supported(cpuinfo: str | None = None) -> bool:
