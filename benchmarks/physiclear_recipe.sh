@@ -11,6 +11,8 @@
 #   no_stage1  without Stage I (Stage II from the untrained projector)
 #   heads      with the cross-fitted read-out heads (clip reader, comparator, name matcher): a plug-in, beside
 #   long       the recipe trained longer: Stage I 300 + Stage II 600 steps (the first recipe's length)
+#   compact    Stage II on the compact describe-then-conclude reasoning (cot/compact.py) instead of plain answers;
+#              its Stage I is rec's of the same seed (copied when rec trained it first: the settings are the same)
 # TRAIN_ONLY=1 stops after training (to train variants and seeds in parallel, then evaluate); TABLE=0 skips the
 # table; EVAL=0 tables what was evaluated before without evaluating; NAME names the result
 # files (default physiclear_val); MACHINE says where it ran (default: 2 CPU cores, this machine).
@@ -30,10 +32,13 @@ declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
                  [cot]="--set data.stage2_data=touchcot --set data.touchcot=$W/touchcot/touchcot/touchcot_train.jsonl --set data.max_length=512"
                  [no_stage1]="--set stage1.skip=true"
                  [heads]="--set model.encoder.cross_video=3 --set model.encoder.clip_reader=true"
-                 [long]="--set stage1.steps=300 --set stage2.steps=600")
+                 [long]="--set stage1.steps=300 --set stage2.steps=600"
+                 [compact]="--set data.stage2_data=compact")
+declare -A STAGE1_FROM=([compact]=rec)
 declare -A LABEL=([rec]="TacReasoner core, recommended recipe" [no_dyn]="w/o temporal branch"
                   [cot]="Stage II on TouchCoT" [no_stage1]="w/o Stage I"
-                  [heads]="core + cross-fitted read-out heads (plug-in)" [long]="core, Stage I 300 + II 600 steps")
+                  [heads]="core + cross-fitted read-out heads (plug-in)" [long]="core, Stage I 300 + II 600 steps"
+                  [compact]="Stage II on compact describe-then-conclude reasoning")
 mkdir -p "$W/logs"
 step() {  # step NAME DONE_FILE COMMAND...: run unless DONE_FILE exists; log its wall time
     local name=$1 done=$2 start
@@ -67,6 +72,10 @@ for v in "${VARIANTS[@]}"; do
     tag="$v.seeds$(IFS=-; echo "${vseeds[*]}")"
     for s in "${vseeds[@]}"; do
         out="$W/runs/$v.seed$s"
+        shared="$W/runs/${STAGE1_FROM[$v]:-none}.seed$s/stage1"
+        if [ -e "$shared/model/config.json" ] && [ ! -e "$out/stage1/model/config.json" ]; then
+            mkdir -p "$out" && cp -r "$shared" "$out/stage1" && echo "[$(date +%H:%M:%S)] $v.seed$s.stage1: ${STAGE1_FROM[$v]}'s"
+        fi
         for st in 1 2; do
             [ "$v" = no_stage1 ] && [ "$st" = 1 ] && continue
             # shellcheck disable=SC2086  # SETS holds several words

@@ -91,7 +91,7 @@ def test_an_unknown_key_error_points_at_the_key_itself(tmp_path, text, line) -> 
     ("seed: 0\ndata:\n  repeat:\n    OSC: 2.5\n", ["data.repeat.OSC", "2.5"]),
     ("seed: 0\ndata:\n  repeat: [OSC]\n", ["data.repeat", "mapping"]),
     ("seed: 0\ndata:\n  length_group_batches: 0\n", ["data.length_group_batches", "at least 1"]),
-    ("seed: 0\ndata:\n  extra_benches: [b]\n", ["data.extra_benches", "plain answers only"]),
+    ("seed: 0\ndata:\n  extra_benches: [b]\n", ["data.extra_benches", "plain or compact answers only"]),
     ("seed: 0\ndata:\n  extra_benches: b\n", ["data.extra_benches", "list of strings", "'b'"]),
     ("seed: 0\ndata:\n  stage2_data: plain\n  extra_benches: [b]\nmodel:\n  encoder:\n    cross_video: 3\n",
      ["data.extra_benches", "read-out heads"]),

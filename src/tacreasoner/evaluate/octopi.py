@@ -37,7 +37,8 @@ def octopi_table(report: Report) -> dict[str, Any]:
         r = rows.get(task)
         out[column] = None if r is None else {
             "task": task, "n": r.n, "accuracy": r.accuracy, "ci_low": r.ci_low, "ci_high": r.ci_high,
-            "chance": r.chance, "parse_failure_rate": r.parse_failure_rate, "std": r.std, "runs": len(r.per_run)}
+            "chance": r.chance, "parse_failure_rate": r.parse_failure_rate, "std": r.std, "runs": len(r.per_run),
+            "follows_rate": r.follows_rate}
     return out
 
 
@@ -50,6 +51,11 @@ def _cell(value: dict | None) -> str:
     return text
 
 
+def _follows_cell(value: dict | None) -> str:
+    rate = None if value is None else value.get("follows_rate")
+    return "–" if rate is None or math.isnan(rate) else f"{100 * rate:.1f}"
+
+
 def octopi_markdown(table: dict[str, Any], *, label: str, split: str) -> str:
     """The table with chance and Octopi's published rows beneath (their split is Octopi's test objects)."""
     columns = [c for c, _ in OCTOPI_COLUMNS]
@@ -57,6 +63,8 @@ def octopi_markdown(table: dict[str, Any], *, label: str, split: str) -> str:
     lines.append(f"| {label} | " + " | ".join(_cell(table[c]) for c in columns) + " |")
     lines.append("| replies in the asked form % | " + " | ".join(
         f"{100 * (1 - table[c]['parse_failure_rate']):.1f}" if table[c] else "–" for c in columns) + " |")
+    lines.append("| answer follows from the levels it stated % | " + " | ".join(
+        _follows_cell(table[c]) for c in columns) + " |")
     lines.append("| n items | " + " | ".join(str(table[c]["n"]) if table[c] else "–" for c in columns) + " |")
     lines.append("| chance | " + " | ".join(f"{100 * table[c]['chance']:.1f}" if table[c] else "–"
                                            for c in columns) + " |")
@@ -66,5 +74,7 @@ def octopi_markdown(table: dict[str, Any], *, label: str, split: str) -> str:
     return "\n".join(lines) + ("\n\nAccuracy in % with the Wilson 95% interval over items (± std over runs when "
                                "several); the project's strict scorer; chance is uniform guessing among valid "
                                "answers. Replies in the asked form: the strict scorer could read an answer of the "
-                               "asked kind (a level word of the asked property, a letter for PSR, ...). Octopi's task "
+                               "asked kind (a level word of the asked property, a letter for PSR, ...). Follows: of "
+                               "all replies, those whose answer is one the levels their reasoning stated imply (– "
+                               "where no reply states levels). Octopi's task "
                                "names: PSS = SOI, POM = OSC, PSR = TSA here.\n")

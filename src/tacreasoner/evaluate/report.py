@@ -36,6 +36,8 @@ from tacreasoner.evaluate.stats import (
 )
 from tacreasoner.intervals import wilson_interval
 from tacreasoner.jsonl import iter_jsonl, write_jsonl
+from tacreasoner.tasks.conclude import REASONED_TASKS
+from tacreasoner.tasks.conclude import consistency as conclusion_consistency
 from tacreasoner.tasks.consistency import ObjectVocabulary, check_reasoning, object_vocabulary
 from tacreasoner.tasks.everyday_objects import everyday_object_names
 from tacreasoner.tasks.extract import MODES, Mode
@@ -135,6 +137,13 @@ class TaskRow:
     n_hallucinated: int = 0
     """Flagged replies, summed over runs."""
     hallucination_per_run: list[float] = field(default_factory=list)
+    n_stated: int = 0
+    """Multi-object tasks: replies whose reasoning states every video's needed levels, summed over runs."""
+    n_follows: int = 0
+    """Replies whose answer is one their own stated levels imply (``tasks.conclude``), summed over runs."""
+    follows_rate: float = math.nan
+    """n_follows / replies (n × runs): a reply stating no levels does not count as following; NaN when no reply of
+    the task stated levels (plain answers, single-clip tasks)."""
 
 
 @dataclass
@@ -172,19 +181,21 @@ class Report:
                   + (" at the mean correct count; mean ± std is over runs (sample std)." if multi else ".")
                   + " Unparseable answers count as wrong. Halluc. % = replies whose reasoning names an object "
                   "the question does not mention or concludes otherwise than its own answer, among the checkable "
-                  "ones (Checked" + (", pooled over runs" if multi else "") + "; docs/benchmark.md).", ""]
+                  "ones (Checked" + (", pooled over runs" if multi else "") + "; docs/benchmark.md). Follows % = "
+                  "replies of a multi-object task whose answer is one the levels their reasoning stated imply, among "
+                  "all its replies (– when none stated levels).", ""]
         head = (["Task", "n", "Accuracy", "95% CI"] + (["Mean ± std"] if multi else [])
-                + ["Halluc. %", "Checked", "Parse fail", "Chance"])
+                + ["Halluc. %", "Checked", "Follows %", "Parse fail", "Chance"])
         lines += ["| " + " | ".join(head) + " |", "|" + "|".join(["---"] + ["---:"] * (len(head) - 1)) + "|"]
         for r in self.tasks:
             cells = [r.task, str(r.n), _pct(r.accuracy), f"{_pct(r.ci_low)}–{_pct(r.ci_high)}"]
             cells += [_pm(r.mean, r.std)] if multi else []
-            cells += [_pct(r.hallucination_rate), f"{r.n_checkable}/{r.n * len(self.runs)}"]
+            cells += [_pct(r.hallucination_rate), f"{r.n_checkable}/{r.n * len(self.runs)}", _pct(r.follows_rate)]
             cells += [_pct(r.parse_failure_rate), _pct(r.chance)]
             lines.append("| " + " | ".join(cells) + " |")
         avg = ["**Average**", "", f"**{_pct(self.average['value'])}**", ""]
         avg += [_pm(self.average["value"], self.average["std"])] if multi else []
-        lines.append("| " + " | ".join([*avg, "", "", "", ""]) + " |")
+        lines.append("| " + " | ".join([*avg, "", "", "", "", ""]) + " |")
         n_checkable = self.overall.get("n_checkable", 0)
         lines += ["", "Average = unweighted mean of the task columns (the papers' convention); "
                   f"overall item accuracy = {_pct(self.overall['accuracy'])}%"
@@ -277,10 +288,14 @@ def summarize(runs: Mapping[str, Sequence[dict]], mode: str | None = None) -> Re
         chance = (sum(chances) / n) if all(c is not None for c in chances) else _task_chance(task)
         flags = {name: [indexed[name][i].get("hallucinated") for i in ids] for name in names}
         n_checkable, n_flagged, halluc_rate = _hallucination([f for name in names for f in flags[name]])
+        follows = [indexed[name][i].get("follows") for name in names for i in ids]
+        n_stated, n_follows = sum(f is not None for f in follows), sum(f is True for f in follows)
         rows.append(TaskRow(task=task, n=n, accuracy=mean, ci_low=lo, ci_high=hi, mean=mean, std=std,
                             parse_failure_rate=failures / (n * len(names)), chance=chance, per_run=per_run,
                             hallucination_rate=halluc_rate, n_checkable=n_checkable, n_hallucinated=n_flagged,
-                            hallucination_per_run=[_hallucination(flags[name])[2] for name in names]))
+                            hallucination_per_run=[_hallucination(flags[name])[2] for name in names],
+                            n_stated=n_stated, n_follows=n_follows,
+                            follows_rate=n_follows / (n * len(names)) if n_stated else math.nan))
     averages = [paper_average(per_run_task[name]) for name in names]
     avg_mean, avg_std = mean_std(averages)
     overall_runs = [sum(bool(r["correct"]) for r in indexed[name].values()) / len(first) for name in names]
@@ -302,6 +317,15 @@ def _hallucination(flags: Sequence[bool | None]) -> tuple[int, int, float]:
     checkable = [bool(f) for f in flags if f is not None]
     flagged = sum(checkable)
     return len(checkable), flagged, (flagged / len(checkable)) if checkable else math.nan
+
+
+def _follows(item: QAItem, prediction: str | None) -> bool | None:
+    """Does a multi-object reply's answer follow from the levels it stated? None: not such a task, no reply, or no
+    levels stated (``tasks.conclude.consistency``)."""
+    if prediction is None or item.task not in REASONED_TASKS:
+        return None
+    status = conclusion_consistency(item, prediction).status
+    return None if status == "no levels" else status == "consistent"
 
 
 def _task_chance(task: str) -> float:
@@ -424,6 +448,7 @@ def evaluate(items: Sequence[QAItem], prediction_paths: Sequence[str | Path], mo
             check = None if r["prediction"] is None else check_reasoning(by_id[r["id"]], r["prediction"], vocabulary)
             r["hallucinated"] = None if check is None else check.flag
             r["consistency"] = None if check is None else check.to_dict()
+            r["follows"] = _follows(by_id[r["id"]], r["prediction"])
             kept = {k: v for k, v in preds.get(r["id"], {}).items() if k not in ("id", "prediction")}
             if kept:
                 r["extra"] = kept

@@ -32,8 +32,9 @@ from tacreasoner.yamlfile import KeyPath, line_of, read_yaml
 
 __all__ = ["DataSettings", "ModelSettings", "RuntimeSettings", "StageSettings", "TrainConfig", "load_train_config"]
 
-STAGE2_DATA = ("touchcot", "plain")
-"""Stage II targets: TouchCoT reasoning, or the plain gold answer (the paper's "w/o CoT" ablation)."""
+STAGE2_DATA = ("touchcot", "plain", "compact")
+"""Stage II targets: TouchCoT reasoning, the plain gold answer (the paper's "w/o CoT" ablation), or the compact
+describe-then-conclude reasoning written from the benchmark's train labels (``cot.compact``)."""
 MIXED_PRECISION = ("auto", "no", "bf16", "fp16")
 LOGGERS = ("none", "tensorboard")
 DTYPES = ("float32", "bfloat16", "float16", "auto")
@@ -79,7 +80,9 @@ class DataSettings:
     touchcot: str | None = "runs/quickstart/touchcot/touchcot/touchcot_train.jsonl"
     """TouchCoT training JSONL (``build-cot``) for Stage II."""
     stage2_data: str = "touchcot"
-    """touchcot | plain (gold answers without reasoning, from the benchmark's train split)."""
+    """touchcot | plain (gold answers without reasoning, from the benchmark's train split) | compact (each
+    multi-object item's videos described in level words, then the step that concludes: ``cot.compact``; no
+    TouchCoT file needed)."""
     stage1_video_readings: bool = False
     """Stage I also asks how one video of a comparison's two or three feels ("How does Video 2 feel in hardness?"),
     so the projector learns tokens the LLM finds by their label (``encoder.video_labels``; docs/training.md)."""
@@ -135,9 +138,9 @@ class DataSettings:
                     raise ValueError(f"data.repeat.{task} must be a whole number ≥ 1, got {times!r}")
         if not isinstance(self.extra_benches, list) or not all(isinstance(b, str) and b for b in self.extra_benches):
             raise ValueError(f"data.extra_benches must be a list of benchmark directories, got {self.extra_benches!r}")
-        if self.extra_benches and self.stage2_data != "plain":
-            raise ValueError("data.extra_benches give plain answers only: set data.stage2_data: plain (their items "
-                             "have no TouchCoT reasoning)")
+        if self.extra_benches and self.stage2_data == "touchcot":
+            raise ValueError("data.extra_benches give plain or compact answers only: set data.stage2_data: plain or "
+                             "compact (their items have no TouchCoT reasoning)")
         if self.tasks is not None:
             _check_task_names(self.tasks, "data.tasks")
             if "TSA" in self.tasks:

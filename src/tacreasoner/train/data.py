@@ -4,7 +4,8 @@
   clip (TFA attributes and combined, real vs fake, contact state), like VTV-150K's raw instruction data,
   written as ``<answer>…</answer>`` (the LLM is frozen in Stage I: it already knows the answer format, so
   the tactile side only has to supply the content; plain text put the loss on format it cannot learn).
-- Stage II (SFT) learns to reason: TouchCoT records (``<think>…</think><answer>…</answer>``), or, for the
+- Stage II (SFT) learns to reason: TouchCoT records (``<think>…</think><answer>…</answer>``); the compact
+  describe-then-conclude reasoning written from the train items' labels (``stage2_data: compact``); or, for the
   paper's "w/o CoT" ablation, the same train items answered with ``<answer>gold</answer>`` only.
 
 Videos are preprocessed deterministically (uniform sampling, no jitter) once per clip or segment and kept
@@ -29,6 +30,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from tacreasoner.cot.compact import compact_target
 from tacreasoner.cot.rulebank import RulesBank, load_bank
 from tacreasoner.model.processing import IGNORE_INDEX
 from tacreasoner.model.video_processing import sensor_index
@@ -216,8 +218,9 @@ def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None 
         examples = _from_items(chosen + (_reworded(chosen) if paraphrases else []), root, _answer_only)
         if video_readings:
             examples += _video_readings(items, root)
-    elif stage2_data == "plain":
-        examples = _from_items(items + (_reworded(items) if paraphrases else []), root, _answer_only)
+    elif stage2_data in ("plain", "compact"):
+        target = _answer_only if stage2_data == "plain" else compact_target
+        examples = _from_items(items + (_reworded(items) if paraphrases else []), root, target)
     else:
         if touchcot is None:
             raise ValueError("data.touchcot: Stage II on TouchCoT needs the training JSONL from build-cot")

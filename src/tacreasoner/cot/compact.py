@@ -1,0 +1,99 @@
+"""The compact reasoning style: describe each object in the benchmark's level words, then the one step that concludes.
+
+TouchCoT as first built (~370 tokens of cue-by-cue prose, :mod:`tacreasoner.cot.rules`) cost a 135M LLM 42 points on
+DynTAC-Sim. Octopi's multi-object answers carry because each object is described first ("First object: …") and the
+conclusion is a comparison over those descriptions; without them its PSS and POM fall to chance. This style writes
+exactly that, from train labels, in under 100 tokens for three videos::
+
+    <think>Video 1: soft. Video 2: hard. Video 3: moderately hard. The softest is Video 1.</think>
+    <answer>the first object</answer>
+
+* SFD, PC, SOI state each video's level of the asked attribute; TSA the levels the scenario needs, then what it
+  needs; OSC every attribute of each video and of each named option, then the closest match.
+* Single-clip tasks (TFA, RFOR, OCSE) answer plainly: their answer *is* the description.
+* The answer is always the gold answer in the asked form, and is checked to be one the stated levels imply
+  (:func:`tacreasoner.tasks.conclude.implied_answers`), so training never shows a reply that contradicts itself.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+from tacreasoner.tasks.conclude import (
+    REASONED_TASKS,
+    Levels,
+    implied_answers,
+    item_levels,
+    option_levels,
+    parsed_answer,
+)
+from tacreasoner.tasks.schema import QAItem
+from tacreasoner.tasks.scoring import TSA_LETTERS
+from tacreasoner.tasks.vocab import Attribute, get_vocabulary
+
+__all__ = ["STYLE", "compact_reasoning", "compact_target", "describe"]
+
+STYLE = "compact-v1"
+"""The style's id (recorded with runs trained on it)."""
+
+
+def describe(levels: Levels, vocab: Mapping[str, Attribute]) -> str:
+    """``hard, slightly rough, no bumps``: the level words in vocabulary order."""
+    return ", ".join(vocab[a].phrase(levels[a]) for a in vocab if a in levels)
+
+
+def _needs(needs: Mapping[str, str], vocab: Mapping[str, Attribute]) -> str:
+    parts = [f"{level} {a}" for a in vocab for want, level in needs.items() if a == want]
+    return parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + f" and {parts[-1]}"
+
+
+def _step(item: QAItem, vocab: Mapping[str, Attribute]) -> str:
+    """The one sentence that turns the stated levels into the answer."""
+    gold = item.gold
+    if item.task == "PC":
+        attribute = gold["attribute"]
+        if gold["relation"] == "similar":
+            return f"Video 1 and Video 2 have similar {attribute}."
+        return f"Video 1 has {gold['relation']} {attribute} than Video 2."
+    if item.task in ("SFD", "SOI"):
+        attr = vocab[gold["attribute"]]
+        if item.task == "SFD" and gold["kind"] == "yesno":
+            comparative = attr.more if gold["direction"] == "more" else attr.less
+            return f"So Video 1 is {'' if gold['value'] else 'not '}{comparative} than Video 2."
+        if item.task == "SFD":
+            word = attr.more if gold["direction"] == "more" else attr.less
+        else:
+            word = attr.most if gold["direction"] == "most" else attr.least
+        return f"The {word} is Video {int(gold['index']) + 1}."
+    if item.task == "TSA":
+        scenario = str(item.meta.get("scenario_text") or gold["scenario"])
+        video = TSA_LETTERS.index(gold["letter"]) + 1
+        return f"{scenario[:1].upper()}{scenario[1:]} needs {_needs(gold['needs'], vocab)}: Video {video} fits better."
+    if item.task == "OSC":
+        pairs = ", ".join(f"{v + 1}-{'ABC'[int(k)]}" for v, k in enumerate(gold["assignment"]))
+        return f"Closest match: {pairs}."
+    raise ValueError(f"item {item.id!r}: task {item.task} is not reasoned over objects")
+
+
+def compact_reasoning(item: QAItem) -> str:
+    """The ``<think>`` text for a multi-object item, from its gold levels."""
+    vocab = get_vocabulary(item.vocabulary)
+    videos = item_levels(item)
+    lines = [f"Video {v + 1}: {describe(levels, vocab)}." for v, levels in enumerate(videos)]
+    options: Sequence[Levels] = ()
+    if item.task == "OSC":
+        options = option_levels(item)
+        lines += [f"({'ABC'[k]}) {name}: {describe(options[k], vocab)}." for k, name in enumerate(item.options)]
+    lines.append(_step(item, vocab))
+    parsed = parsed_answer(item, f"<answer>{item.answer}</answer>")
+    if parsed not in implied_answers(item, videos, options):
+        raise ValueError(f"item {item.id!r} ({item.task}): its gold answer {item.answer!r} does not follow from "
+                         f"its labels' levels {videos}")
+    return " ".join(lines)
+
+
+def compact_target(item: QAItem) -> str:
+    """The training target of ``item`` in the compact style: reasoning for multi-object tasks, plain otherwise."""
+    if item.task not in REASONED_TASKS:
+        return f"<answer>{item.answer}</answer>"
+    return f"<think>{compact_reasoning(item)}</think><answer>{item.answer}</answer>"

@@ -1,0 +1,186 @@
+"""Describe, then conclude: what a multi-object answer follows from, and whether a reply's answer follows from it.
+
+Octopi answers every multi-object question by first stating each object's levels and then concluding; the answer
+then reduces to a comparison, an arg-max, a match or a scenario's needs over the stated levels. This module holds
+that reduction, for three users:
+
+* the compact reasoning style (:mod:`tacreasoner.cot.compact`) writes the levels and the conclusion from train labels;
+* the evaluation's consistency measure (:func:`consistency`) reads the levels a reply stated and checks that its
+  answer is one those levels imply — a reply that contradicts itself is a defect, not noise;
+* the rule applied to a model's own single-clip answers (:func:`implied_answers` with per-clip readings) says what
+  reasoning could reach from what the model reads, beside what its multi-object answers reach.
+
+Answers are compared in the scorer's parsed form (:func:`tacreasoner.tasks.scoring.score_item`): PC a relation word,
+SFD an index (``which``) or a bool (``yesno``), SOI an index, OSC a tuple of option indices, TSA a letter. Where the
+levels tie (three coarse levels make ties common), every answer the tie allows is implied: "the hardest of hard,
+hard, soft" may be either hard one.
+"""
+
+from __future__ import annotations
+
+import itertools
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from tacreasoner.tasks.extract import extract_answer, split_reasoning
+from tacreasoner.tasks.schema import PC_RELATIONS, QAItem
+from tacreasoner.tasks.scoring import TSA_LETTERS, _find_phrases, score_item
+from tacreasoner.tasks.vocab import Attribute, get_vocabulary
+
+__all__ = ["REASONED_TASKS", "Consistency", "Levels", "consistency", "implied_answers", "item_levels",
+           "needed_attributes", "option_levels", "parsed_answer", "stated_levels"]
+
+REASONED_TASKS = ("SFD", "PC", "SOI", "OSC", "TSA")
+"""Tasks over several objects whose answer follows from per-object levels."""
+
+Levels = dict[str, int]
+"""attribute → rank (0, 1, 2)."""
+
+_VIDEO = re.compile(r"\bvideo\s+([1-3])\s*:\s*([^.\n]*)", re.IGNORECASE)
+_OBJECT_LETTERS = "ABC"
+_OPTION = re.compile(r"\(([A-C])\)[^:\n(]*:\s*([^.\n]*)")
+
+
+def needed_attributes(item: QAItem) -> list[str]:
+    """The attributes an item's answer depends on, in vocabulary order."""
+    vocab = get_vocabulary(item.vocabulary)
+    if item.task in ("SFD", "PC", "SOI"):
+        return [str(item.gold["attribute"])]
+    if item.task == "TSA":
+        return [a for a in vocab if a in item.gold["needs"]]
+    if item.task == "OSC":
+        return list(vocab)
+    raise ValueError(f"item {item.id!r}: task {item.task} is not reasoned over objects ({', '.join(REASONED_TASKS)})")
+
+
+def item_levels(item: QAItem) -> list[Levels]:
+    """Each video's gold levels of the attributes the item needs, from the labels the builder kept in ``meta``."""
+    ranks = item.meta.get("ranks")
+    if not isinstance(ranks, list) or len(ranks) != len(item.videos):
+        raise ValueError(f"item {item.id!r} ({item.task}): meta 'ranks' must give every video's levels "
+                         f"(rebuild the benchmark with this version)")
+    needed = needed_attributes(item)
+    if item.task in ("SFD", "PC", "SOI"):
+        return [{needed[0]: int(r)} for r in ranks]
+    return [{a: int(r[a]) for a in needed} for r in ranks]
+
+
+def option_levels(item: QAItem) -> list[Levels]:
+    """OSC: each named option's gold levels (the levels of the video recorded on it)."""
+    if item.task != "OSC":
+        raise ValueError(f"item {item.id!r}: only OSC items name objects as options")
+    videos = item_levels(item)
+    out: list[Levels] = [{} for _ in item.options]
+    for video, option in enumerate(item.gold["assignment"]):
+        out[int(option)] = videos[video]
+    return out
+
+
+def _read_levels(text: str, attributes: Sequence[str], vocab: Mapping[str, Attribute]) -> Levels | None:
+    """The one level of each attribute named in ``text``; None when an attribute is missing or named twice."""
+    table = {phrase: (a, rank) for a in attributes for rank, phrase in enumerate(vocab[a].levels)}
+    found = _find_phrases(text, table)
+    out: Levels = {}
+    for attribute in attributes:
+        ranks = {rank for _, (a, rank) in found if a == attribute}
+        if len(ranks) != 1:
+            return None
+        out[attribute] = ranks.pop()
+    return out
+
+
+def stated_levels(item: QAItem, reasoning: str) -> tuple[list[Levels], list[Levels]] | None:
+    """(per video, per option) levels a reply's reasoning states (``Video 1: hard, rough.`` …; OSC also
+    ``(A) a lemon: moderately hard, …``); None when any video's (or option's) needed levels are not stated once."""
+    vocab = get_vocabulary(item.vocabulary)
+    needed = needed_attributes(item)
+
+    def read(pattern: re.Pattern[str], keys: Sequence[str]) -> list[Levels] | None:
+        spans = {m.group(1).upper(): m.group(2) for m in reversed(list(pattern.finditer(reasoning)))}
+        levels = [_read_levels(spans[k], needed, vocab) if k in spans else None for k in keys]
+        return None if any(v is None for v in levels) else levels  # type: ignore[return-value]
+
+    videos = read(_VIDEO, [str(v + 1) for v in range(len(item.videos))])
+    if videos is None:
+        return None
+    if item.task != "OSC":
+        return videos, []
+    options = read(_OPTION, list("ABC"[: len(item.options)]))
+    return None if options is None else (videos, options)
+
+
+def _extremes(values: Sequence[int], highest: bool) -> set[int]:
+    best = max(values) if highest else min(values)
+    return {i for i, v in enumerate(values) if v == best}
+
+
+def _distance(a: Levels, b: Levels) -> int:
+    return sum(abs(a[k] - b[k]) for k in a)
+
+
+def implied_answers(item: QAItem, videos: Sequence[Levels], options: Sequence[Levels] = ()) -> set[Any]:
+    """Every answer (scorer's parsed form) that these levels imply for ``item``'s question."""
+    if item.task in ("SFD", "PC", "SOI"):
+        attribute = str(item.gold["attribute"])
+        ranks = [int(v[attribute]) for v in videos]
+    if item.task == "PC":
+        return {PC_RELATIONS[0] if ranks[0] > ranks[1] else PC_RELATIONS[1] if ranks[0] < ranks[1]
+                else PC_RELATIONS[2]}
+    if item.task == "SOI":
+        return _extremes(ranks, item.gold["direction"] == "most")
+    if item.task == "SFD":
+        more = item.gold["direction"] == "more"
+        if item.gold["kind"] == "which":  # a tie allows either object
+            return _extremes(ranks, more)
+        return {ranks[0] > ranks[1] if more else ranks[0] < ranks[1]}  # "is the first harder?" no when equal
+    if item.task == "TSA":
+        needs = item.gold["needs"]
+        scores = [sum(v[a] if level == "high" else 2 - v[a] for a, level in needs.items()) for v in videos]
+        return {TSA_LETTERS[i] for i in _extremes(scores, True)}
+    if item.task == "OSC":
+        if len(options) != len(videos):
+            raise ValueError(f"item {item.id!r} (OSC): needs every option's levels to match videos to names")
+        costs = {perm: sum(_distance(videos[v], options[k]) for v, k in enumerate(perm))
+                 for perm in itertools.permutations(range(len(options)))}
+        best = min(costs.values())
+        return {perm for perm, cost in costs.items() if cost == best}
+    raise ValueError(f"item {item.id!r}: task {item.task} is not reasoned over objects ({', '.join(REASONED_TASKS)})")
+
+
+def parsed_answer(item: QAItem, reply: str) -> Any:
+    """The reply's answer in the form :func:`implied_answers` gives (strict extraction; None when unreadable):
+    an OSC assignment as a tuple, a lettered SFD/SOI wording's letter as the object's index."""
+    if item.meta.get("answer_form") == "letter":  # a training wording that letters the objects
+        answer = (extract_answer(reply, "strict") or "").strip().rstrip(".").upper()
+        return _OBJECT_LETTERS.index(answer) if len(answer) == 1 and answer in _OBJECT_LETTERS else None
+    parsed = score_item(item, reply, "strict").parsed
+    return tuple(parsed) if isinstance(parsed, list) else parsed
+
+
+@dataclass(frozen=True)
+class Consistency:
+    """Whether one reply's answer follows from the levels its reasoning stated."""
+
+    status: str
+    """``consistent`` | ``inconsistent`` | ``no levels`` (no reasoning, or a video's levels not stated once) |
+    ``no answer`` (levels stated, answer unreadable)."""
+    implied: tuple[Any, ...] = ()
+
+    @property
+    def consistent(self) -> bool:
+        return self.status == "consistent"
+
+
+def consistency(item: QAItem, reply: str) -> Consistency:
+    """Read the levels ``reply`` states for ``item`` and check its answer against what they imply."""
+    reasoning, _ = split_reasoning(reply)
+    stated = stated_levels(item, reasoning) if reasoning else None
+    if stated is None:
+        return Consistency("no levels")
+    implied = implied_answers(item, *stated)
+    parsed = parsed_answer(item, reply)
+    if parsed is None:
+        return Consistency("no answer", tuple(sorted(implied, key=str)))
+    return Consistency("consistent" if parsed in implied else "inconsistent", tuple(sorted(implied, key=str)))
