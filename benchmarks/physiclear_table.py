@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -85,13 +86,19 @@ def main() -> None:
             md += (f"| ↳ {label}: replies in the asked form % | "
                    + " | ".join("–" if table.get(c) is None else f"{100 * (1 - table[c]['parse_failure_rate']):.1f}"
                                 for c in columns) + " |\n")
+            if any(not math.isnan(table[c].get("follows_rate", math.nan)) for c in columns if table.get(c)):
+                md += (f"| ↳ {label}: answer follows from the levels it stated % | "
+                       + " | ".join("–" if table.get(c) is None or math.isnan(table[c].get("follows_rate", math.nan))
+                                    else f"{100 * table[c]['follows_rate']:.1f}" for c in columns) + " |\n")
     md += n_line + "\n" + chance + "\n"
     md += "\n".join(f"| {name} (published, Octopi's test objects) | "
                     + " | ".join(f"{row[c]:.1f}" if c in row else "–" for c in columns) + " |"
                     for name, row in PUBLISHED.items()) + "\n"
     md += ("\nAccuracy in % with the Wilson 95% interval over items (± std over runs when several); strict scorer; "
            f"n items is the first row's. PSS = SOI, POM = OSC, PSR = TSA (zero-shot). The {args.split} split holds "
-           "few objects, and clips of one object are not independent: read the intervals as optimistic.\n")
+           "few objects, and clips of one object are not independent: read the intervals as optimistic. 'Answer "
+           "follows from the levels it stated': of all replies (pooled over runs), those whose answer is one the "
+           "levels their reasoning stated imply (tasks/conclude.py); shown only for rows whose replies state levels.\n")
     publish(args.name, {**info, "split": args.split, "rows": {k: {"runs": r, "table": t} for k, (t, r) in
                                                               rows.items()}, "published": PUBLISHED,
                         "notes": args.notes}, md)
