@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import warnings
 from pathlib import Path
 
@@ -431,3 +432,34 @@ def test_a_max_length_that_leaves_out_a_whole_task_stops_the_run_and_a_partial_l
     assert run["dropped_by_task"] == {task: n for task, n in sorted(over.items()) if n}
     assert f"longer than data.max_length={cut} and left out (TFA-combined {over['TFA-combined']}" in \
         capfd.readouterr().err
+
+
+def test_stage2_trains_on_compact_reasoning_beside_text_only_object_knowledge(inputs, tmp_path) -> None:
+    """data.stage2_data: compact with data.knowledge: all: the reasoned items' targets describe each video, the
+    text-only knowledge examples (no video) join them whatever data.tasks says, Stage II trains on both, and a batch
+    made only of text-only examples gives a finite loss with gradients."""
+    from tacreasoner.model.build import build_model
+    from tacreasoner.train.data import VideoBank, collate, load_examples, tokenize_examples
+
+    examples = load_examples(2, inputs["bench"], stage2_data="compact", knowledge="all", tasks=["SOI"])
+    knowledge = [e for e in examples if e.task == "knowledge"]
+    assert knowledge and all(e.videos == () and "<tactile>" not in e.question for e in knowledge)
+    assert {e.task for e in examples} == {"SOI", "knowledge"}
+    assert all(e.target.startswith("<think>Video 1: ") for e in examples if e.task == "SOI")
+    config = tiny_config(inputs, tmp_path / "run", stage1={"skip": True}, stage2={"steps": 2, "batch_size": 4},
+                         data={"stage2_data": "compact", "knowledge": "all", "tasks": ["SOI"]})
+    train_stage(config, 2)
+    run = json.loads((tmp_path / "run" / "stage2" / "run.json").read_text())
+    assert run["examples"] == len(examples)
+    losses = [json.loads(line)["loss"] for line in (tmp_path / "run" / "stage2" / "train_log.jsonl").open()]
+    assert losses and all(math.isfinite(v) for v in losses)
+
+    model, processor = build_model(str(inputs["llm"]), encoder=dict(ENCODER))
+    tokenized, _ = tokenize_examples(processor, knowledge[:3], 1024)
+    bank = VideoBank(processor.video_config, processor.sensor_types)
+    bank.build(list(examples[0].videos))  # training builds the bank over every example; this batch has no video
+    batch = collate(processor, tokenized, bank, None)
+    assert batch["pixel_values"].shape[0] == 0
+    loss = model.train()(**batch).loss
+    loss.backward()
+    assert math.isfinite(float(loss)) and any(p.grad is not None for p in model.parameters() if p.requires_grad)

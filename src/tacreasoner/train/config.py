@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from tacreasoner.cot.knowledge import KNOWLEDGE
 from tacreasoner.fields import reject_unknown_fields
 from tacreasoner.model.stages import STAGES, LoraSettings
 from tacreasoner.yamlfile import KeyPath, line_of, read_yaml
@@ -83,6 +84,10 @@ class DataSettings:
     """touchcot | plain (gold answers without reasoning, from the benchmark's train split) | compact (each
     multi-object item's videos described in level words, then the step that concludes: ``cot.compact``; no
     TouchCoT file needed)."""
+    knowledge: str = "none"
+    """Stage II also trains on text-only examples of what everyday objects feel like (``cot.knowledge``, from
+    ``tasks/everyday_objects.yaml``; what matching videos to named objects needs): none | all | without_eval_names
+    (every entry sharing a word with a val or test object's name left out, to measure what carries over)."""
     stage1_video_readings: bool = False
     """Stage I also asks how one video of a comparison's two or three feels ("How does Video 2 feel in hardness?"),
     so the projector learns tokens the LLM finds by their label (``encoder.video_labels``; docs/training.md)."""
@@ -118,6 +123,8 @@ class DataSettings:
     (cross-fitting; ``train.heads``). 1: in-sample verdicts (near gold on the prompts the head was fitted on)."""
 
     def check(self) -> None:
+        if self.knowledge not in KNOWLEDGE:
+            raise ValueError(f"data.knowledge: {self.knowledge!r} is not one of {', '.join(KNOWLEDGE)}")
         if self.stage2_data not in STAGE2_DATA:
             raise ValueError(f"data.stage2_data: {self.stage2_data!r} is not one of {', '.join(STAGE2_DATA)}")
         if self.max_length < 16:

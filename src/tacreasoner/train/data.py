@@ -203,12 +203,35 @@ def _video_readings(items: Sequence[QAItem], root: Path) -> list[TrainExample]:
     return out
 
 
+def object_knowledge(bench: Path, knowledge: str, seed: int = 0) -> list[TrainExample]:
+    """Text-only examples of what everyday objects feel like (``cot.knowledge``) in the benchmark's vocabulary:
+    ``knowledge`` all, or without_eval_names (no entry sharing a word with a val or test object's name)."""
+    from tacreasoner.cot.knowledge import KNOWLEDGE, knowledge_examples
+    from tacreasoner.tasks.bench import load_bench
+
+    if knowledge not in KNOWLEDGE:
+        raise ValueError(f"data.knowledge must be one of {', '.join(KNOWLEDGE)}, got {knowledge!r}")
+    if knowledge == "none":
+        return []
+    info, train = load_bench(bench, "train")
+
+    def names(items: Sequence[QAItem]) -> list[str]:
+        return [n for i in items for n in (*i.meta.get("object_names", ()), *i.objects)]
+
+    exclude = []
+    if knowledge == "without_eval_names":
+        exclude = [n for split in ("val", "test") for n in names(load_bench(bench, split)[1])]
+    return [TrainExample(key=e.key, task="knowledge", question=e.question, target=e.target, videos=())
+            for e in knowledge_examples(info["vocabulary"], exclude=exclude, train_names=names(train), seed=seed)]
+
+
 def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None = None, stage2_data: str = "touchcot",
                   tasks: Sequence[str] | None = None, max_items: int | None = None,
                   video_readings: bool = False, comparisons: bool = False, paraphrases: bool = False,
-                  ) -> list[TrainExample]:
+                  knowledge: str = "none") -> list[TrainExample]:
     """The examples of ``stage`` (see the module doc); TSA is never among them. ``paraphrases``: each item is also
-    asked in one of its training wordings (``tasks.paraphrase``)."""
+    asked in one of its training wordings (``tasks.paraphrase``). ``knowledge`` (Stage II): text-only examples of
+    what everyday objects feel like (:func:`object_knowledge`)."""
     bench = Path(bench)
     root, items = train_items(bench)
     items = [i for i in items if i.task != "TSA"]
@@ -229,6 +252,8 @@ def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None 
             examples += _reworded_touchcot(examples, items, root)
     if tasks is not None:
         examples = [e for e in examples if e.task in set(tasks)]
+    if stage == 2:
+        examples += object_knowledge(bench, knowledge)
     if max_items is not None:
         examples = examples[:max_items]
     if not examples:
