@@ -67,3 +67,16 @@ def test_object_knowledge_leaves_out_the_benchmarks_val_and_test_names(physiclea
     assert eval_words and any(named(e.question) for e in every)
     removed = object_knowledge(tmp_path / "bench", "without_eval_names")
     assert all(not content_words(n) & eval_words for e in removed for n in named(e.question))
+
+
+def test_stage2_adds_scenario_knowledge_as_text_only_and_never_tsa(physiclear_folder: Path, tmp_path: Path) -> None:
+    from tacreasoner.tasks.bench import build_bench
+    from tacreasoner.train.data import load_examples
+
+    build_bench("physiclear", physiclear_folder, tmp_path / "bench")
+    plain = load_examples(2, tmp_path / "bench", stage2_data="compact")
+    more = load_examples(2, tmp_path / "bench", stage2_data="compact", scenario_knowledge=True)
+    added = more[len(plain):]
+    assert added and {e.task for e in added} == {"scenario knowledge"} and all(e.videos == () for e in added)
+    assert "TSA" not in {e.task for e in more}
+    assert load_examples(1, tmp_path / "bench", scenario_knowledge=True) == load_examples(1, tmp_path / "bench")

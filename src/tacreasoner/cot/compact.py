@@ -31,7 +31,7 @@ from tacreasoner.tasks.schema import QAItem
 from tacreasoner.tasks.scoring import TSA_LETTERS
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
-__all__ = ["STYLE", "compact_reasoning", "compact_target", "describe"]
+__all__ = ["STYLE", "compact_reasoning", "compact_target", "describe", "needs_phrase", "scenario_step"]
 
 STYLE = "compact-v1"
 """The style's id (recorded with runs trained on it)."""
@@ -42,9 +42,15 @@ def describe(levels: Levels, vocab: Mapping[str, Attribute]) -> str:
     return ", ".join(vocab[a].phrase(levels[a]) for a in vocab if a in levels)
 
 
-def _needs(needs: Mapping[str, str], vocab: Mapping[str, Attribute]) -> str:
+def needs_phrase(needs: Mapping[str, str], vocab: Mapping[str, Attribute]) -> str:
+    """``high hardness and low roughness``, in vocabulary order."""
     parts = [f"{level} {a}" for a in vocab for want, level in needs.items() if a == want]
     return parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + f" and {parts[-1]}"
+
+
+def scenario_step(scenario: str, needs: Mapping[str, str], better: int, vocab: Mapping[str, Attribute]) -> str:
+    """``Wiping a screen needs low hardness and low roughness: Video 2 fits better.``"""
+    return f"{scenario[:1].upper()}{scenario[1:]} needs {needs_phrase(needs, vocab)}: Video {better + 1} fits better."
 
 
 def _step(item: QAItem, vocab: Mapping[str, Attribute]) -> str:
@@ -67,8 +73,7 @@ def _step(item: QAItem, vocab: Mapping[str, Attribute]) -> str:
         return f"The {word} is Video {int(gold['index']) + 1}."
     if item.task == "TSA":
         scenario = str(item.meta.get("scenario_text") or gold["scenario"])
-        video = TSA_LETTERS.index(gold["letter"]) + 1
-        return f"{scenario[:1].upper()}{scenario[1:]} needs {_needs(gold['needs'], vocab)}: Video {video} fits better."
+        return scenario_step(scenario, gold["needs"], TSA_LETTERS.index(gold["letter"]), vocab)
     if item.task == "OSC":
         pairs = ", ".join(f"{v + 1}-{'ABC'[int(k)]}" for v, k in enumerate(gold["assignment"]))
         return f"Closest match: {pairs}."

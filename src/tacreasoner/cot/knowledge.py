@@ -20,13 +20,22 @@ import random
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
-from tacreasoner.cot.compact import describe
+from tacreasoner.cot.compact import describe, needs_phrase, scenario_step
 from tacreasoner.tasks.everyday_objects import EverydayObject, everyday_objects
+from tacreasoner.tasks.scenarios import Scenario, load_scenarios, scenarios_for
 from tacreasoner.tasks.vocab import get_vocabulary
 
-__all__ = ["KNOWLEDGE", "KnowledgeExample", "bare_name", "content_words", "knowledge_examples", "without_names"]
+__all__ = ["KNOWLEDGE", "SCENARIO_FILE", "KnowledgeExample", "bare_name", "content_words", "knowledge_examples",
+           "scenario_examples", "without_names"]
 
+SCENARIO_FILE = Path(__file__).resolve().parents[1] / "tasks" / "scenarios_train.yaml"
+"""Training scenarios: disjoint from the evaluation bank ``tasks/scenarios.yaml`` (TSA stays zero-shot; a test checks
+that no training scenario is an evaluation one)."""
+SCENARIO_QUESTION = "You need an object for {scenario}. What should it feel like?"
+SCENARIO_CHOICE = ("First object: {first}.\nSecond object: {second}.\nYou need an object for {scenario}. Which of the "
+                   "two objects is the better choice? (A) the first object (B) the second object")
 KNOWLEDGE = ("none", "all", "without_eval_names")
 """``data.knowledge``: no object knowledge, every entry, or every entry sharing no word with a val/test object name."""
 
@@ -87,4 +96,38 @@ def knowledge_examples(vocabulary: str, *, exclude: Sequence[str] = (), train_na
                         for k, o in enumerate(group))
         out.append(KnowledgeExample(f"knowledge-group-{g}", QUESTION_GROUP.format(options=options),
                                     f"<answer>{said}</answer>"))
+    return out
+
+
+def scenario_examples(vocabulary: str, *, scenarios: Sequence[Scenario] | None = None, seed: int = 0,
+                      choices_per_scenario: int = 4) -> list[KnowledgeExample]:
+    """Text-only examples of what a scenario needs, over *training* scenarios (never the evaluation bank's):
+    ``You need an object for … What should it feel like?`` → ``… needs high hardness and low roughness.``, and
+    choices between two objects described in words, reasoned in the compact style's TSA steps (the levels, what
+    the scenario needs, which fits better), so zero-shot TSA on videos only has to read the clips."""
+    vocab = get_vocabulary(vocabulary)
+    bank = scenarios_for(vocabulary, tuple(load_scenarios(SCENARIO_FILE) if scenarios is None else scenarios))
+    rng = random.Random(seed)
+    out: list[KnowledgeExample] = []
+    for s in bank:
+        text = f"{s.text[:1].upper()}{s.text[1:]}"
+        out.append(KnowledgeExample(f"scenario-{s.id}", SCENARIO_QUESTION.format(scenario=s.text),
+                                    f"<answer>{text} needs {needs_phrase(s.needs, vocab)}.</answer>"))
+        made = 0
+        for _ in range(50 * choices_per_scenario):
+            if made == choices_per_scenario:
+                break
+            pair = [{a: rng.randrange(3) for a in vocab} for _ in range(2)]
+            scores = [s.score(levels) for levels in pair]
+            if scores[0] == scores[1]:
+                continue
+            better = int(scores[1] > scores[0])
+            shown = [{a: levels[a] for a in vocab if a in s.needs} for levels in pair]
+            think = " ".join(f"Video {v + 1}: {describe(shown[v], vocab)}." for v in range(2))
+            think += " " + scenario_step(s.text, s.needs, better, vocab)
+            question = SCENARIO_CHOICE.format(first=describe(pair[0], vocab), second=describe(pair[1], vocab),
+                                              scenario=s.text)
+            out.append(KnowledgeExample(f"scenario-{s.id}-choice-{made}", question,
+                                        f"<think>{think}</think><answer>{'AB'[better]}</answer>"))
+            made += 1
     return out

@@ -88,6 +88,10 @@ class DataSettings:
     """Stage II also trains on text-only examples of what everyday objects feel like (``cot.knowledge``, from
     ``tasks/everyday_objects.yaml``; what matching videos to named objects needs): none | all | without_eval_names
     (every entry sharing a word with a val or test object's name left out, to measure what carries over)."""
+    scenario_knowledge: bool = False
+    """Stage II also trains on text-only examples of what everyday scenarios need and of choices between two objects
+    described in words (``cot.knowledge.scenario_examples``), over training scenarios disjoint from TSA's
+    evaluation bank (``tasks/scenarios_train.yaml``; TSA itself stays zero-shot)."""
     stage1_video_readings: bool = False
     """Stage I also asks how one video of a comparison's two or three feels ("How does Video 2 feel in hardness?"),
     so the projector learns tokens the LLM finds by their label (``encoder.video_labels``; docs/training.md)."""

@@ -228,10 +228,11 @@ def object_knowledge(bench: Path, knowledge: str, seed: int = 0) -> list[TrainEx
 def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None = None, stage2_data: str = "touchcot",
                   tasks: Sequence[str] | None = None, max_items: int | None = None,
                   video_readings: bool = False, comparisons: bool = False, paraphrases: bool = False,
-                  knowledge: str = "none") -> list[TrainExample]:
+                  knowledge: str = "none", scenario_knowledge: bool = False) -> list[TrainExample]:
     """The examples of ``stage`` (see the module doc); TSA is never among them. ``paraphrases``: each item is also
     asked in one of its training wordings (``tasks.paraphrase``). ``knowledge`` (Stage II): text-only examples of
-    what everyday objects feel like (:func:`object_knowledge`)."""
+    what everyday objects feel like (:func:`object_knowledge`); ``scenario_knowledge`` (Stage II): text-only examples
+    of what training scenarios need (``cot.knowledge.scenario_examples``; never TSA's evaluation scenarios)."""
     bench = Path(bench)
     root, items = train_items(bench)
     items = [i for i in items if i.task != "TSA"]
@@ -254,6 +255,13 @@ def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None 
         examples = [e for e in examples if e.task in set(tasks)]
     if stage == 2:
         examples += object_knowledge(bench, knowledge)
+    if stage == 2 and scenario_knowledge:
+        from tacreasoner.cot.knowledge import scenario_examples
+        from tacreasoner.tasks.bench import load_bench
+
+        vocabulary = load_bench(bench, "train")[0]["vocabulary"]
+        examples += [TrainExample(key=e.key, task="scenario knowledge", question=e.question, target=e.target,
+                                  videos=()) for e in scenario_examples(vocabulary)]
     if max_items is not None:
         examples = examples[:max_items]
     if not examples:

@@ -276,7 +276,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: ProgressBar, la
                              stage2_data=config.data.stage2_data, tasks=config.data.tasks,
                              max_items=config.data.max_items, video_readings=config.data.stage1_video_readings,
                              comparisons=config.data.stage1_comparisons, paraphrases=config.data.paraphrases,
-                             knowledge=config.data.knowledge)
+                             knowledge=config.data.knowledge, scenario_knowledge=config.data.scenario_knowledge)
     for extra in config.data.extra_benches:  # plain or compact (checked), videos under each benchmark's own root
         examples += load_examples(stage, extra, stage2_data=config.data.stage2_data, tasks=config.data.tasks,
                                   video_readings=config.data.stage1_video_readings,
