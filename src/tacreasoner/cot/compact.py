@@ -31,11 +31,7 @@ from tacreasoner.tasks.schema import QAItem
 from tacreasoner.tasks.scoring import TSA_LETTERS
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
-__all__ = ["STYLE", "compact_reasoning", "compact_target", "describe", "needs_phrase", "scenario_step"]
-
-STYLE = "compact-v1"
-"""The style's id (recorded with runs trained on it)."""
-
+__all__ = ["compact_reasoning", "compact_target", "describe", "needs_phrase", "scenario_step"]
 
 def describe(levels: Levels, vocab: Mapping[str, Attribute]) -> str:
     """``hard, slightly rough, no bumps``: the level words in vocabulary order."""
