@@ -13,6 +13,10 @@
 #   long       the recipe trained longer: Stage I 300 + Stage II 600 steps (the first recipe's length)
 #   compact    Stage II on the compact describe-then-conclude reasoning (cot/compact.py) instead of plain answers;
 #              its Stage I is rec's of the same seed (copied when rec trained it first: the settings are the same)
+#   know       compact + text-only knowledge: everyday objects (data.knowledge all) and training scenarios
+#              (data.scenario_knowledge); Stage I rec's
+#   know_noname  the same with every entry sharing a word with a val/test object's name left out
+#              (data.knowledge without_eval_names): what carries over to names never seen
 # TRAIN_ONLY=1 stops after training (to train variants and seeds in parallel, then evaluate); TABLE=0 skips the
 # table; EVAL=0 tables what was evaluated before without evaluating; NAME names the result
 # files (default physiclear_val); MACHINE says where it ran (default: 2 CPU cores, this machine).
@@ -33,12 +37,16 @@ declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
                  [no_stage1]="--set stage1.skip=true"
                  [heads]="--set model.encoder.cross_video=3 --set model.encoder.clip_reader=true"
                  [long]="--set stage1.steps=300 --set stage2.steps=600"
-                 [compact]="--set data.stage2_data=compact")
-declare -A STAGE1_FROM=([compact]=rec)
+                 [compact]="--set data.stage2_data=compact"
+                 [know]="--set data.stage2_data=compact --set data.knowledge=all --set data.scenario_knowledge=true"
+                 [know_noname]="--set data.stage2_data=compact --set data.knowledge=without_eval_names --set data.scenario_knowledge=true")
+declare -A STAGE1_FROM=([compact]=rec [know]=rec [know_noname]=rec)
 declare -A LABEL=([rec]="TacReasoner core, recommended recipe" [no_dyn]="w/o temporal branch"
                   [cot]="Stage II on TouchCoT" [no_stage1]="w/o Stage I"
                   [heads]="core + cross-fitted read-out heads (plug-in)" [long]="core, Stage I 300 + II 600 steps"
-                  [compact]="Stage II on compact describe-then-conclude reasoning")
+                  [compact]="Stage II on compact describe-then-conclude reasoning"
+                  [know]="compact + object and scenario knowledge as text"
+                  [know_noname]="compact + knowledge without the val/test objects' names")
 mkdir -p "$W/logs"
 step() {  # step NAME DONE_FILE COMMAND...: run unless DONE_FILE exists; log its wall time
     local name=$1 done=$2 start
