@@ -32,7 +32,7 @@ def _spread(values: list[float]) -> tuple[float, float]:
 
 def row(folder: Path, split: str, bench: Path | None) -> dict:
     """Per task: model accuracy, the rule on the model's own clip readings, coverage, follows share (per seed)."""
-    from tacreasoner.evaluate.clip_rule import clip_readings, rule_on_readings
+    from tacreasoner.evaluate.clip_rule import clip_readings, rule_on_readings, rule_on_stated
     from tacreasoner.evaluate.report import load_scored
     from tacreasoner.tasks.bench import load_bench
 
@@ -44,9 +44,13 @@ def row(folder: Path, split: str, bench: Path | None) -> dict:
     for path in files:
         records = load_scored(path)
         rule = rule_on_readings(items, clip_readings(items, records))
+        stated = rule_on_stated(items, records)
         for task, score in rule.items():
             mine = [r for r in records if r["task"] == task]
-            cells = per_seed.setdefault(task, {"model": [], "rule": [], "covered": [], "follows": []})
+            cells = per_seed.setdefault(task, {"model": [], "rule": [], "covered": [], "follows": [], "stated": [],
+                                               "rule_on_stated": []})
+            cells["stated"].append(stated[task].covered / stated[task].n)
+            cells["rule_on_stated"].append(stated[task].accuracy)
             cells["model"].append(sum(bool(r["correct"]) for r in mine) / len(mine))
             cells["rule"].append(score.accuracy)
             cells["covered"].append(score.covered / score.n)
@@ -72,14 +76,16 @@ def main() -> None:
     info = stamp()
     md = header_md(f"What reasoning loses ({args.split}): the model's multi-object answers against the rule on its "
                    "own single-clip answers", info) + (args.notes + "\n\n" if args.notes else "")
-    md += ("| model | task | model's answers % | rule on its own clip readings % | clips read % | answer follows "
-           "from its stated levels % |\n|---|---|---|---|---|---|\n")
+    md += ("| model | task | model's answers % | rule on its own clip readings % | clips read % | replies stating "
+           "levels % | answer follows from its stated levels % | rule on its stated levels % |\n"
+           "|---|---|---|---|---|---|---|---|\n")
     for label, cells in rows.items():
         for task in [t for t in COLUMNS if t in cells]:
             c = cells[task]
             name = task if COLUMNS[task] == task else f"{COLUMNS[task]} ({task})"
             md += (f"| {label} ({cells['seeds']} seed(s)) | {name} | {pm(*_spread(c['model']))} | "
-                   f"{pm(*_spread(c['rule']))} | {pm(*_spread(c['covered']))} | {pm(*_spread(c['follows']))} |\n")
+                   f"{pm(*_spread(c['rule']))} | {pm(*_spread(c['covered']))} | {pm(*_spread(c['stated']))} | "
+                   f"{pm(*_spread(c['follows']))} | {pm(*_spread(c['rule_on_stated']))} |\n")
     md += ("\nMean ± std over seeds. The rule (tasks/conclude.py) takes each clip's levels from the same model's "
            "answers to the single-clip questions about that clip (the property's own question, else the combined "
            "one) and concludes: PC compares, PSS/SFD take the arg-max, PSR scores the scenario's needs, POM matches "
@@ -87,7 +93,10 @@ def main() -> None:
            "knowledge of what named objects feel like). Ties in the readings share the credit. Items with an unread "
            "clip count as wrong ('clips read' is the share of items whose every clip was read). 'Answer follows': "
            "replies whose answer is one the levels their own reasoning stated imply, among all replies; 0 for "
-           "models that state no levels.\n")
+           "models that state no levels. 'Rule on its stated levels': each reply's answer replaced by the rule applied "
+           "to the levels it stated in context (POM with the levels it stated for the named objects; replies stating "
+           "none keep their answer): what the model's own descriptions are worth when the last step cannot go "
+           "wrong.\n")
     publish(args.name, {**info, "split": args.split, "rows": rows, "notes": args.notes}, md, args.results)
 
 

@@ -47,12 +47,15 @@ def test_gap_and_follows_rows(physiclear_folder: Path, tmp_path: Path) -> None:
                          env={"PYTHONPATH": str(BENCHMARKS.parent / "src"), "PATH": "/usr/bin:/bin"})
     assert run.returncode == 0, run.stderr
     rows = json.loads((out / "gap.json").read_text())["rows"]
-    assert "| compact (1 seed(s)) | PC | 100.0 | 100.0 | 100.0 | 100.0 |" in (out / "gap.md").read_text()
+    full = "| compact (1 seed(s)) | PC | 100.0 | 100.0 | 100.0 | 100.0 | 100.0 | 100.0 |"
+    assert full in (out / "gap.md").read_text()
     for task in set(REASONED_TASKS) & set(rows["compact"]):
         assert rows["compact"][task]["model"] == [1.0] and rows["compact"][task]["rule"] == [1.0]
         assert rows["compact"][task]["follows"] == [1.0] and rows["plain"][task]["follows"] == [0.0]
     assert rows["flipped"]["PC"]["follows"] == [0.0] and rows["flipped"]["PC"]["model"] == [0.0]
     assert rows["flipped"]["PC"]["rule"] == [1.0]  # its readings were right: the rule still concludes correctly
+    assert rows["flipped"]["PC"]["rule_on_stated"] == [1.0] and rows["flipped"]["PC"]["stated"] == [1.0]
+    assert rows["plain"]["PC"]["stated"] == [0.0] and rows["plain"]["PC"]["rule_on_stated"] == [1.0]  # its own
 
     sys.path.insert(0, str(BENCHMARKS))
     try:

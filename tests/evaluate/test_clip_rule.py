@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from tacreasoner.evaluate.clip_rule import clip_readings, rule_on_readings
+from tacreasoner.evaluate.clip_rule import clip_readings, rule_on_readings, rule_on_stated
 from tacreasoner.tasks.schema import QAItem, VideoRef
 
 
@@ -42,3 +42,16 @@ def test_the_rule_concludes_from_readings_and_ties_share_the_credit() -> None:
     assert score.n == 2 and score.covered == 1 and score.accuracy == pytest.approx(0.25)
     perfect = rule_on_readings(soi, {**readings, "b": {"hardness": 1}, "d": {"hardness": 2}})["SOI"]
     assert perfect.accuracy == 1.0 and perfect.covered == 2
+
+
+def test_the_rule_on_stated_levels_replaces_a_conclusion_that_does_not_follow() -> None:
+    item = _soi(["a", "b", "c"], 0, [2, 1, 0])  # gold: the first is the hardest
+    said = "<think>Video 1: hard. Video 2: {b}. Video 3: soft. The hardest is Video 3.</think>" \
+           "<answer>the third object</answer>"
+    records = [{"id": item.id, "task": "SOI", "correct": False, "prediction": said.format(b="moderately hard")}]
+    assert rule_on_stated([item], records)["SOI"].accuracy == 1.0  # its own levels say the first
+    records[0]["prediction"] = said.format(b="hard")  # a tie between the first two: half credit
+    assert rule_on_stated([item], records)["SOI"].accuracy == pytest.approx(0.5)
+    plain = [{"id": item.id, "task": "SOI", "correct": True, "prediction": "<answer>the first object</answer>"}]
+    score = rule_on_stated([item], plain)["SOI"]
+    assert score.accuracy == 1.0 and score.covered == 0  # no levels stated: its own answer stands

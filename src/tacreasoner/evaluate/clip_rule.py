@@ -24,10 +24,12 @@ from tacreasoner.tasks.conclude import (
     needed_attributes,
     option_levels,
     parsed_answer,
+    stated_levels,
 )
+from tacreasoner.tasks.extract import split_reasoning
 from tacreasoner.tasks.schema import QAItem
 
-__all__ = ["RuleScore", "clip_readings", "rule_on_readings"]
+__all__ = ["RuleScore", "clip_readings", "rule_on_readings", "rule_on_stated"]
 
 
 def clip_readings(items: Sequence[QAItem], records: Sequence[Mapping[str, Any]]) -> dict[str, Levels]:
@@ -74,6 +76,29 @@ def rule_on_readings(items: Sequence[QAItem], readings: Mapping[str, Levels]) ->
         covered[item.task] += 1
         implied = implied_answers(item, [{a: levels[a] for a in needed} for levels in videos],
                                   option_levels(item) if item.task == "OSC" else ())
+        gold = parsed_answer(item, f"<answer>{item.answer}</answer>")
+        credit[item.task].append((gold in implied) / len(implied) if implied else 0.0)
+    return {task: RuleScore(len(values), covered[task], sum(values) / len(values)) for task, values in credit.items()}
+
+
+def rule_on_stated(items: Sequence[QAItem], records: Sequence[Mapping[str, Any]]) -> dict[str, RuleScore]:
+    """Per multi-object task: accuracy when each reply's answer is replaced by the rule applied to the levels its own
+    reasoning stated (ties share the credit); a reply that states no levels keeps its own answer. What the model's
+    descriptions are worth once the conclusion step cannot go wrong (``covered``: replies that stated levels)."""
+    by_id = {i.id: i for i in items}
+    credit: dict[str, list[float]] = defaultdict(list)
+    covered: dict[str, int] = defaultdict(int)
+    for record in records:
+        item = by_id.get(record["id"])
+        if item is None or item.task not in REASONED_TASKS:
+            continue
+        reasoning, _ = split_reasoning(record.get("prediction") or "")
+        stated = stated_levels(item, reasoning) if reasoning else None
+        if stated is None:
+            credit[item.task].append(float(bool(record["correct"])))
+            continue
+        covered[item.task] += 1
+        implied = implied_answers(item, *stated)
         gold = parsed_answer(item, f"<answer>{item.answer}</answer>")
         credit[item.task].append((gold in implied) / len(implied) if implied else 0.0)
     return {task: RuleScore(len(values), covered[task], sum(values) / len(values)) for task, values in credit.items()}
