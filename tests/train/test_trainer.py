@@ -462,4 +462,5 @@ def test_stage2_trains_on_compact_reasoning_beside_text_only_object_knowledge(in
     assert batch["pixel_values"].shape[0] == 0
     loss = model.train()(**batch).loss
     loss.backward()
-    assert math.isfinite(float(loss.detach())) and any(p.grad is not None for p in model.parameters() if p.requires_grad)
+    assert math.isfinite(float(loss.detach()))
+    assert any(p.grad is not None for p in model.parameters() if p.requires_grad)
