@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from tacreasoner.tasks.extract import extract_answer, split_reasoning
+from tacreasoner.tasks.scenarios import suitability
 from tacreasoner.tasks.schema import PC_RELATIONS, QAItem
 from tacreasoner.tasks.scoring import TSA_LETTERS, _find_phrases, score_item
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
@@ -136,8 +137,7 @@ def implied_answers(item: QAItem, videos: Sequence[Levels], options: Sequence[Le
             return _extremes(ranks, more)
         return {ranks[0] > ranks[1] if more else ranks[0] < ranks[1]}  # "is the first harder?" no when equal
     if item.task == "TSA":
-        needs = item.gold["needs"]
-        scores = [sum(v[a] if level == "high" else 2 - v[a] for a, level in needs.items()) for v in videos]
+        scores = [suitability(item.gold["needs"], v) for v in videos]
         return {TSA_LETTERS[i] for i in _extremes(scores, True)}
     if item.task == "OSC":
         if len(options) != len(videos):

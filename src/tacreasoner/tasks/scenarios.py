@@ -36,7 +36,13 @@ class Scenario:
 
     def score(self, ranks: Mapping[str, int]) -> int:
         """Suitability of an object with these ranks (higher is better)."""
-        return sum(ranks[a] if level == "high" else 2 - ranks[a] for a, level in self.needs.items())
+        return suitability(self.needs, ranks)
+
+
+def suitability(needs: Mapping[str, str], ranks: Mapping[str, int]) -> int:
+    """How well an object with ``ranks`` meets ``needs`` (attribute → "high" | "low"): the sum over needs of the rank
+    or 2 − rank. The one rule TSA's gold, its reasoning and its consistency check share."""
+    return sum(ranks[a] if level == "high" else 2 - ranks[a] for a, level in needs.items())
 
 
 def _all_attributes() -> set[str]:
