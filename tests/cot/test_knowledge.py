@@ -49,9 +49,14 @@ def test_train_objects_labels_win_over_an_entry_of_the_same_name() -> None:
 def test_object_knowledge_leaves_out_the_benchmarks_val_and_test_names(physiclear_folder: Path, tmp_path: Path
                                                                        ) -> None:
     from tacreasoner.tasks.bench import build_bench, load_bench
-    from tacreasoner.train.data import object_knowledge
+    from tacreasoner.train.data import text_knowledge
 
     build_bench("physiclear", physiclear_folder, tmp_path / "bench")
+    train = load_bench(tmp_path / "bench", "train")[1]
+
+    def object_knowledge(bench: Path, knowledge: str) -> list:
+        return text_knowledge(bench, train, knowledge)
+
     every = object_knowledge(tmp_path / "bench", "all")
     assert len(every) >= len(everyday_objects())  # one per entry and the groups of three
     assert object_knowledge(tmp_path / "bench", "none") == []

@@ -203,26 +203,34 @@ def _video_readings(items: Sequence[QAItem], root: Path) -> list[TrainExample]:
     return out
 
 
-def object_knowledge(bench: Path, knowledge: str, seed: int = 0) -> list[TrainExample]:
-    """Text-only examples of what everyday objects feel like (``cot.knowledge``) in the benchmark's vocabulary:
-    ``knowledge`` all, or without_eval_names (no entry sharing a word with a val or test object's name)."""
-    from tacreasoner.cot.knowledge import KNOWLEDGE, knowledge_examples
+def text_knowledge(bench: Path, train: Sequence[QAItem], knowledge: str = "none", scenario_knowledge: bool = False,
+                   seed: int = 0) -> list[TrainExample]:
+    """Text-only Stage II examples in the benchmark's vocabulary (``cot.knowledge``): what everyday objects feel like
+    (``knowledge`` all, or without_eval_names: no entry sharing a word with a val or test object's name; entries named
+    like one of the ``train`` items' objects never) and, with ``scenario_knowledge``, what training scenarios need."""
+    from tacreasoner.cot.knowledge import KNOWLEDGE, knowledge_examples, scenario_examples
     from tacreasoner.tasks.bench import load_bench
 
     if knowledge not in KNOWLEDGE:
         raise ValueError(f"data.knowledge must be one of {', '.join(KNOWLEDGE)}, got {knowledge!r}")
-    if knowledge == "none":
+    if knowledge == "none" and not scenario_knowledge:
         return []
-    info, train = load_bench(bench, "train")
+    vocabulary = json.loads((bench / "bench.json").read_text(encoding="utf-8"))["vocabulary"]
 
     def names(items: Sequence[QAItem]) -> list[str]:
         return [n for i in items for n in (*i.meta.get("object_names", ()), *i.objects)]
 
-    exclude = []
-    if knowledge == "without_eval_names":
-        exclude = [n for split in ("val", "test") for n in names(load_bench(bench, split)[1])]
-    return [TrainExample(key=e.key, task="knowledge", question=e.question, target=e.target, videos=())
-            for e in knowledge_examples(info["vocabulary"], exclude=exclude, train_names=names(train), seed=seed)]
+    out = []
+    if knowledge != "none":
+        exclude = []
+        if knowledge == "without_eval_names":
+            exclude = [n for split in ("val", "test") for n in names(load_bench(bench, split)[1])]
+        out += [TrainExample(key=e.key, task="knowledge", question=e.question, target=e.target, videos=())
+                for e in knowledge_examples(vocabulary, exclude=exclude, train_names=names(train), seed=seed)]
+    if scenario_knowledge:
+        out += [TrainExample(key=e.key, task="scenario knowledge", question=e.question, target=e.target, videos=())
+                for e in scenario_examples(vocabulary, seed=seed)]
+    return out
 
 
 def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None = None, stage2_data: str = "touchcot",
@@ -231,8 +239,8 @@ def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None 
                   knowledge: str = "none", scenario_knowledge: bool = False) -> list[TrainExample]:
     """The examples of ``stage`` (see the module doc); TSA is never among them. ``paraphrases``: each item is also
     asked in one of its training wordings (``tasks.paraphrase``). ``knowledge`` (Stage II): text-only examples of
-    what everyday objects feel like (:func:`object_knowledge`); ``scenario_knowledge`` (Stage II): text-only examples
-    of what training scenarios need (``cot.knowledge.scenario_examples``; never TSA's evaluation scenarios)."""
+    what everyday objects feel like; ``scenario_knowledge`` (Stage II): text-only examples of what training scenarios
+    need (never TSA's evaluation scenarios); both :func:`text_knowledge`."""
     bench = Path(bench)
     root, items = train_items(bench)
     items = [i for i in items if i.task != "TSA"]
@@ -254,14 +262,7 @@ def load_examples(stage: int, bench: str | Path, *, touchcot: str | Path | None 
     if tasks is not None:
         examples = [e for e in examples if e.task in set(tasks)]
     if stage == 2:
-        examples += object_knowledge(bench, knowledge)
-    if stage == 2 and scenario_knowledge:
-        from tacreasoner.cot.knowledge import scenario_examples
-        from tacreasoner.tasks.bench import load_bench
-
-        vocabulary = load_bench(bench, "train")[0]["vocabulary"]
-        examples += [TrainExample(key=e.key, task="scenario knowledge", question=e.question, target=e.target,
-                                  videos=()) for e in scenario_examples(vocabulary)]
+        examples += text_knowledge(bench, items, knowledge, scenario_knowledge)
     if max_items is not None:
         examples = examples[:max_items]
     if not examples:
