@@ -33,6 +33,7 @@ from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
 __all__ = ["compact_reasoning", "compact_target", "describe", "needs_phrase", "scenario_step"]
 
+
 def describe(levels: Levels, vocab: Mapping[str, Attribute]) -> str:
     """``hard, slightly rough, no bumps``: the level words in vocabulary order."""
     return ", ".join(vocab[a].phrase(levels[a]) for a in vocab if a in levels)

@@ -74,11 +74,10 @@ def rule_on_readings(items: Sequence[QAItem], readings: Mapping[str, Levels]) ->
             credit[item.task].append(0.0)
             continue
         covered[item.task] += 1
-        implied = implied_answers(item, [{a: levels[a] for a in needed} for levels in videos],
-                                  option_levels(item) if item.task == "OSC" else ())
-        gold = parsed_answer(item, f"<answer>{item.answer}</answer>")
-        credit[item.task].append((gold in implied) / len(implied) if implied else 0.0)
-    return {task: RuleScore(len(values), covered[task], sum(values) / len(values)) for task, values in credit.items()}
+        credit[item.task].append(_credit(item, implied_answers(
+            item, [{a: levels[a] for a in needed} for levels in videos],
+            option_levels(item) if item.task == "OSC" else ())))
+    return _scores(credit, covered)
 
 
 def rule_on_stated(items: Sequence[QAItem], records: Sequence[Mapping[str, Any]]) -> dict[str, RuleScore]:
@@ -98,7 +97,16 @@ def rule_on_stated(items: Sequence[QAItem], records: Sequence[Mapping[str, Any]]
             credit[item.task].append(float(bool(record["correct"])))
             continue
         covered[item.task] += 1
-        implied = implied_answers(item, *stated)
-        gold = parsed_answer(item, f"<answer>{item.answer}</answer>")
-        credit[item.task].append((gold in implied) / len(implied) if implied else 0.0)
-    return {task: RuleScore(len(values), covered[task], sum(values) / len(values)) for task, values in credit.items()}
+        credit[item.task].append(_credit(item, implied_answers(item, *stated)))
+    return _scores(credit, covered)
+
+
+def _credit(item: QAItem, implied: set[Any]) -> float:
+    """The share of the rule's answers that is right: a tie between the gold and another answer is half right."""
+    gold = parsed_answer(item, f"<answer>{item.answer}</answer>")
+    return (gold in implied) / len(implied) if implied else 0.0
+
+
+def _scores(credit: Mapping[str, list[float]], covered: Mapping[str, int]) -> dict[str, RuleScore]:
+    return {task: RuleScore(len(values), covered.get(task, 0), sum(values) / len(values))
+            for task, values in credit.items()}
