@@ -17,6 +17,9 @@
 #              (data.scenario_knowledge); Stage I rec's
 #   know_noname  the same with every entry sharing a word with a val/test object's name left out
 #              (data.knowledge without_eval_names): what carries over to names never seen
+#   plain_know plain answers (as rec) + the same name-removed object knowledge and scenario knowledge as text: the
+#              model the stepwise answering mode (evaluate --answer-mode stepwise) asks what named objects feel like
+#              and what a scenario needs; Stage I rec's
 # TRAIN_ONLY=1 stops after training (to train variants and seeds in parallel, then evaluate); TABLE=0 skips the
 # table; EVAL=0 tables what was evaluated before without evaluating; NAME names the result
 # files (default physiclear_val); MACHINE says where it ran (default: 2 CPU cores, this machine).
@@ -39,14 +42,16 @@ declare -A SETS=([rec]="" [no_dyn]="--set model.encoder.use_temporal=false"
                  [long]="--set stage1.steps=300 --set stage2.steps=600"
                  [compact]="--set data.stage2_data=compact"
                  [know]="--set data.stage2_data=compact --set data.knowledge=all --set data.scenario_knowledge=true"
-                 [know_noname]="--set data.stage2_data=compact --set data.knowledge=without_eval_names --set data.scenario_knowledge=true")
-declare -A STAGE1_FROM=([compact]=rec [know]=rec [know_noname]=rec)
+                 [know_noname]="--set data.stage2_data=compact --set data.knowledge=without_eval_names --set data.scenario_knowledge=true"
+                 [plain_know]="--set data.knowledge=without_eval_names --set data.scenario_knowledge=true")
+declare -A STAGE1_FROM=([compact]=rec [know]=rec [know_noname]=rec [plain_know]=rec)
 declare -A LABEL=([rec]="TacReasoner core, recommended recipe" [no_dyn]="w/o temporal branch"
                   [cot]="Stage II on TouchCoT" [no_stage1]="w/o Stage I"
                   [heads]="core + cross-fitted read-out heads (plug-in)" [long]="core, Stage I 300 + II 600 steps"
                   [compact]="Stage II on compact describe-then-conclude reasoning"
                   [know]="compact + object and scenario knowledge as text"
-                  [know_noname]="compact + knowledge without the val/test objects' names")
+                  [know_noname]="compact + knowledge without the val/test objects' names"
+                  [plain_know]="plain + knowledge as text without the val/test objects' names")
 mkdir -p "$W/logs"
 step() {  # step NAME DONE_FILE COMMAND...: run unless DONE_FILE exists; log its wall time
     local name=$1 done=$2 start

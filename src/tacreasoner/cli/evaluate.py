@@ -80,6 +80,12 @@ def retrieval_bench_cmd(
 
 
 
+Answers = Annotated[str, typer.Option(
+    "--answers", help="direct: every question in one pass; stepwise: a question over several objects is answered by "
+                      "reading each video (and each named object, each scenario's needs) in a pass of its own and "
+                      "concluding by the rule (evaluate/stepwise.py); its reply shows the readings.")]
+
+
 @app.command("evaluate")
 @cli_errors
 def evaluate_cmd(
@@ -101,18 +107,20 @@ def evaluate_cmd(
     touch_seed: Annotated[int, typer.Option("--touch-seed", help="Seed of the shuffled videos.")] = 0,
     video_cache: VideoCache = None,
     dtype: Dtype = "float32",
+    answers: Answers = "direct",
 ) -> None:
     """Answer a benchmark split with a trained model and score it (Wilson CIs; resumable predictions)."""
     needs_train_extra("evaluate")
     at_least_one("--batch-size", batch_size)
-    from tacreasoner.evaluate.predict import check_dtype, check_touch, cut_warning, predict_split
+    from tacreasoner.evaluate.predict import check_answers, check_dtype, check_touch, cut_warning, predict_split
     from tacreasoner.evaluate.report import evaluate
 
     check_touch(touch)  # before the model loads: a typo fails at once
     check_dtype(dtype)
+    check_answers(answers)
     items, preds = predict_split(model, bench, split, out, batch_size=batch_size, max_new_tokens=max_new_tokens,
                                  limit=limit, touch=touch, touch_seed=touch_seed, video_cache=video_cache,
-                                 dtype=dtype)
+                                 dtype=dtype, answers=answers)
     report_dir = out if touch == "real" else out / f"touch_{touch}"
     report = evaluate(items, [preds], mode, report_dir)
     console.print(report.to_markdown())
@@ -152,6 +160,7 @@ def evaluate_physiclear_cmd(
         "--wording", help="benchmark: the benchmark's question templates; heldout: the same items asked in wordings "
                           "no training used (tasks/paraphrases/heldout.yaml; tasks without one are left out).")
                        ] = "benchmark",
+    answers: Answers = "direct",
 ) -> None:
     """Score saved models on a PhysiCLeAR-shaped folder: its items built deterministically, Octopi's table out."""
     needs_train_extra("evaluate-physiclear")
@@ -169,7 +178,7 @@ def evaluate_physiclear_cmd(
     with StageProgress() as bars:
         result = evaluate_folder(model, data, out, split=split, seed=seed, per_task=per_task, mode=mode,
                                  batch_size=batch_size, max_new_tokens=max_new_tokens, retrieval=retrieval,
-                                 encoder=encoder, retrieval_k=retrieval_k, wording=wording,
+                                 encoder=encoder, retrieval_k=retrieval_k, wording=wording, answers=answers,
                                  progress=lambda label: functools.partial(bars, label), say=console.print)
     console.print(f"{out / 'bench'}: {sum(result.counts.values())} items over {result.objects} objects "
                   f"({', '.join(f'{t} {n}' for t, n in result.counts.items())})")

@@ -18,6 +18,7 @@ exactly that, from train labels, in under 100 tokens for three videos::
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 from tacreasoner.tasks.conclude import (
     REASONED_TASKS,
@@ -31,7 +32,7 @@ from tacreasoner.tasks.schema import QAItem
 from tacreasoner.tasks.scoring import TSA_LETTERS
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
-__all__ = ["compact_reasoning", "compact_target", "describe", "needs_phrase", "scenario_step"]
+__all__ = ["compact_reasoning", "compact_target", "conclusion_step", "describe", "needs_phrase", "scenario_step"]
 
 
 def describe(levels: Levels, vocab: Mapping[str, Attribute]) -> str:
@@ -50,29 +51,31 @@ def scenario_step(scenario: str, needs: Mapping[str, str], better: int, vocab: M
     return f"{scenario[:1].upper()}{scenario[1:]} needs {needs_phrase(needs, vocab)}: Video {better + 1} fits better."
 
 
-def _step(item: QAItem, vocab: Mapping[str, Attribute]) -> str:
-    """The one sentence that turns the stated levels into the answer."""
+def conclusion_step(item: QAItem, answer: Any, vocab: Mapping[str, Attribute],
+                    needs: Mapping[str, str] | None = None) -> str:
+    """The one sentence that turns the stated levels into ``answer`` (the scorer's parsed form, as
+    :func:`tacreasoner.tasks.conclude.parsed_answer` gives it); TSA names ``needs`` (default the gold's)."""
     gold = item.gold
     if item.task == "PC":
         attribute = gold["attribute"]
-        if gold["relation"] == "similar":
+        if answer == "similar":
             return f"Video 1 and Video 2 have similar {attribute}."
-        return f"Video 1 has {gold['relation']} {attribute} than Video 2."
+        return f"Video 1 has {answer} {attribute} than Video 2."
     if item.task in ("SFD", "SOI"):
         attr = vocab[gold["attribute"]]
         if item.task == "SFD" and gold["kind"] == "yesno":
             comparative = attr.more if gold["direction"] == "more" else attr.less
-            return f"So Video 1 is {'' if gold['value'] else 'not '}{comparative} than Video 2."
+            return f"So Video 1 is {'' if answer else 'not '}{comparative} than Video 2."
         if item.task == "SFD":
             word = attr.more if gold["direction"] == "more" else attr.less
         else:
             word = attr.most if gold["direction"] == "most" else attr.least
-        return f"The {word} is Video {int(gold['index']) + 1}."
+        return f"The {word} is Video {int(answer) + 1}."
     if item.task == "TSA":
         scenario = str(item.meta.get("scenario_text") or gold["scenario"])
-        return scenario_step(scenario, gold["needs"], TSA_LETTERS.index(gold["letter"]), vocab)
+        return scenario_step(scenario, gold["needs"] if needs is None else needs, TSA_LETTERS.index(answer), vocab)
     if item.task == "OSC":
-        pairs = ", ".join(f"{v + 1}-{'ABC'[int(k)]}" for v, k in enumerate(gold["assignment"]))
+        pairs = ", ".join(f"{v + 1}-{'ABC'[int(k)]}" for v, k in enumerate(answer))
         return f"Closest match: {pairs}."
     raise ValueError(f"item {item.id!r}: task {item.task} is not reasoned over objects")
 
@@ -86,8 +89,8 @@ def compact_reasoning(item: QAItem) -> str:
     if item.task == "OSC":
         options = option_levels(item)
         lines += [f"({'ABC'[k]}) {name}: {describe(options[k], vocab)}." for k, name in enumerate(item.options)]
-    lines.append(_step(item, vocab))
     parsed = parsed_answer(item, f"<answer>{item.answer}</answer>")
+    lines.append(conclusion_step(item, parsed, vocab))
     if parsed not in implied_answers(item, videos, options):
         raise ValueError(f"item {item.id!r} ({item.task}): its gold answer {item.answer!r} does not follow from "
                          f"its labels' levels {videos}")

@@ -49,25 +49,34 @@ def same_settings_as_before(out: Path, settings: dict) -> None:
 def evaluate_folder(models: Sequence[Path], data: Path, out: Path, *, split: str | None = None, seed: int = 0,
                     per_task: int | None = None, mode: str = "strict", batch_size: int = 32,
                     max_new_tokens: int = 512, retrieval: Path | None = None, encoder: Path | None = None,
-                    retrieval_k: int | None = None, wording: str = "benchmark",
+                    retrieval_k: int | None = None, wording: str = "benchmark", answers: str = "direct",
                     progress: Callable[[str], Callable[[int, int], None] | None] | None = None,
                     say: Callable[[str], None] = print) -> FolderEvaluation:
     """Every model answers the folder's ``split`` (default: test, or the only labelled split); see the module doc.
+    ``answers``: how questions over several objects are answered (``evaluate.predict.ANSWER_MODES``).
     ``progress(label)`` gives a per-model progress callback."""
-    from tacreasoner.evaluate.predict import answerer_id, cut_warning, load_trained, predict_items, predictions_path
+    from tacreasoner.evaluate.predict import (
+        answerer_id,
+        check_answers,
+        cut_warning,
+        load_trained,
+        predict_items,
+        predictions_path,
+    )
     from tacreasoner.evaluate.report import evaluate
     from tacreasoner.tasks.bench import build_folder_bench, load_bench, reword_bench
     from tacreasoner.train.data import bench_video_root
 
     if wording not in WORDINGS:
         raise ValueError(f"wording must be one of {', '.join(WORDINGS)}, got {wording!r}")
+    check_answers(answers)
     for path in models:
         if not (Path(path) / "config.json").is_file():
             raise FileNotFoundError(f"--model {path}: not a saved model (no config.json)")
     same_settings_as_before(out, {"models": [str(m) for m in models], "data": str(data), "split": split, "seed": seed,
                                   "per_task": per_task, "retrieval": None if retrieval is None else str(retrieval),
                                   "encoder": None if encoder is None else str(encoder), "retrieval_k": retrieval_k,
-                                  "wording": wording})
+                                  "wording": wording} | ({} if answers == "direct" else {"answers": answers}))
     summary, name = build_folder_bench(data, out / "bench", split=split, seed=seed, per_task=per_task)
     if wording == "heldout":
         summary.counts.update(reword_bench(summary.out_dir, wording="heldout", splits=(name,)))
@@ -84,7 +93,8 @@ def evaluate_folder(models: Sequence[Path], data: Path, out: Path, *, split: str
         path = predictions_path(out / f"model{k}", name)
         bar = progress(f"answering {name}, model {k + 1} of {len(models)}") if progress else None
         predict_items(model, processor, items, bench_video_root(summary.out_dir, info), path, batch_size=batch_size,
-                      max_new_tokens=max_new_tokens, progress=bar, answered_by=answerer_id(model_dir, summary.out_dir))
+                      max_new_tokens=max_new_tokens, progress=bar, answers=answers,
+                      answered_by=answerer_id(model_dir, summary.out_dir, answers=answers))
         if (warning := cut_warning(path, max_new_tokens)) is not None:
             say(warning)
         paths.append(path)
@@ -92,10 +102,12 @@ def evaluate_folder(models: Sequence[Path], data: Path, out: Path, *, split: str
     report = evaluate(items, paths, mode, out)
     folder_split = json.loads((summary.out_dir / "bench.json").read_text())["folder_split"]
     table = octopi_table(report)
-    label = ", ".join(str(m) for m in models) + ("" if wording == "benchmark" else " (held-out wordings)")
+    label = ", ".join(str(m) for m in models) + ("" if wording == "benchmark" else " (held-out wordings)") + \
+        ("" if answers == "direct" else f" ({answers} answers)")
     text = octopi_markdown(table, label=label, split=f"{data} · {folder_split}")
     (out / "octopi.md").write_text(f"# Octopi's PhysiCLeAR table\n\n{text}")
     (out / "octopi.json").write_text(json.dumps({"data": str(data), "split": folder_split, "wording": wording,
+                                                 "answers": answers,
                                                  "models": [str(m) for m in models], "mode": mode, "seed": seed,
                                                  "table": table}, indent=2))
     return FolderEvaluation(report, table, text, summary.counts[name], summary.objects[name], folder_split)

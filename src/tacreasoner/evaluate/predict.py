@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import os
 import random
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -24,10 +24,13 @@ import torch
 
 from tacreasoner.tasks.schema import QAItem
 
-__all__ = ["ANSWER_DTYPES", "TOUCH_MODES", "answer_with_model", "answerer_id", "blank_video", "check_dtype",
-           "check_touch", "load_trained", "predict_items", "predict_split", "predictions_path", "resolve_dtype",
-           "set_aside_stale", "shuffle_videos"]
+__all__ = ["ANSWER_DTYPES", "ANSWER_MODES", "TOUCH_MODES", "answer_with_model", "answerer_id", "blank_video",
+           "check_answers", "check_dtype", "check_touch", "load_trained", "predict_items", "predict_split",
+           "predictions_path", "resolve_dtype", "set_aside_stale", "shuffle_videos", "steps_path"]
 
+ANSWER_MODES = ("direct", "stepwise")
+"""How questions over several objects are answered: one pass (``direct``), or one pass per video and named object
+and the conclusion by the rule (``stepwise``: :mod:`tacreasoner.evaluate.stepwise`)."""
 TOUCH_MODES = ("real", "blank", "shuffled")
 """What the model gets as touch: the item's own videos, a featureless clip, or other items' videos."""
 
@@ -78,16 +81,19 @@ def load_trained(model_dir: str | os.PathLike[str], adapter: str | os.PathLike[s
     return model.eval(), processor
 
 
-def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[str], dtype: str | None = None) -> str:
+def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[str], dtype: str | None = None,
+                answers: str = "direct") -> str:
     """Who answers what, as recorded on each prediction line: the model folder (path, weights' size and time), the
-    benchmark folder and the answering type where it is not float32. Item ids repeat across models and benchmark
-    variants, so a resumed file must be checked against it rather than mix two runs' answers."""
+    benchmark folder, the answering type where it is not float32 and the answering mode where it is not direct. Item
+    ids repeat across models and benchmark variants, so a resumed file must be checked against it rather than mix two
+    runs' answers."""
     model = Path(model_dir).resolve()
     weights = sorted(model.glob("*.safetensors"))
     stamp = ",".join(f"{w.stat().st_size}@{w.stat().st_mtime_ns // 10**9}" for w in weights)
     dtype = resolve_dtype(dtype)
     cast = f"; dtype={dtype}" if dtype not in (None, "float32") else ""
-    return f"model={model} [{stamp}]; bench={Path(bench_dir).resolve()}{_bench_version(Path(bench_dir))}{cast}"
+    mode = f"; answers={check_answers(answers)}" if answers != "direct" else ""
+    return f"model={model} [{stamp}]; bench={Path(bench_dir).resolve()}{_bench_version(Path(bench_dir))}{cast}{mode}"
 
 
 def _bench_version(bench_dir: Path) -> str:
@@ -98,6 +104,13 @@ def _bench_version(bench_dir: Path) -> str:
     except (OSError, ValueError, AttributeError):
         return ""
     return f" v{version}" if version is not None else ""
+
+
+def check_answers(answers: str) -> str:
+    """``answers`` if it is a known answering mode; a ValueError naming them otherwise."""
+    if answers not in ANSWER_MODES:
+        raise ValueError(f"answers must be one of {', '.join(ANSWER_MODES)}; got {answers!r}")
+    return answers
 
 
 def check_touch(touch: str) -> str:
@@ -257,7 +270,7 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
                   out_path: str | os.PathLike[str], *, batch_size: int = 32, max_new_tokens: int = REPLY_TOKENS,
                   progress: Callable[[int, int], None] | None = None,
                   video_cache: str | os.PathLike[str] | None = None, touch: str = "real",
-                  touch_seed: int = 0, answered_by: str | None = None) -> Path:
+                  touch_seed: int = 0, answered_by: str | None = None, answers: str = "direct") -> Path:
     """Greedy answers for ``items`` appended to ``out_path`` (items already there are skipped).
 
     ``video_cache``: the training run's preprocessed-video directory, reused when given.
@@ -265,10 +278,14 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
     ``shuffled`` (the videos of other items of ``items``, see :func:`shuffle_videos`, drawn from ``touch_seed``);
     each line records it, and a file written with another mode is refused rather than resumed.
     ``answered_by`` (:func:`answerer_id`): recorded on each line; a file answered by another model or benchmark is
-    refused rather than resumed."""
+    refused rather than resumed.
+    ``answers``: ``direct`` (one pass per item) or ``stepwise`` (questions over several objects answered one video
+    and one named object per pass and concluded by the rule, :mod:`tacreasoner.evaluate.stepwise`; their
+    sub-replies kept in :func:`steps_path`)."""
     from tacreasoner.train.data import VideoBank, video_key
 
     check_touch(touch)
+    check_answers(answers)
     out = Path(out_path)
     out.parent.mkdir(parents=True, exist_ok=True)
     if out.is_file() and out.read_bytes()[-1:] not in (b"", b"\n"):
@@ -291,41 +308,121 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
     encoder = getattr(base, "tactile_encoder", None)
     if blank is None and encoder is not None:  # the frozen appearance branch once per clip, not per question
         bank.cache_appearance(encoder, cache_dir=video_cache)
-    device = next(base.parameters()).device
+
+    def replies(prompts: Sequence[tuple[str, Sequence[VideoKey]]], budget: int = max_new_tokens,
+                ) -> Iterator[list[tuple[str, bool]]]:
+        return _replies(base, processor, prompts, bank, blank, batch_size, budget)
+
     if progress is not None:
         progress(len(items) - len(todo), len(items))
+    stepwise = [item for item in todo if answers == "stepwise" and item.task in _reasoned_tasks()]
+    direct = [item for item in todo if item not in stepwise]
     # similar lengths together: less padding in each generate call
-    todo.sort(key=lambda item: (len(item.videos), len(item.question)))
-    eos, pad = processor.eos_token_ids, processor.tokenizer.pad_token_id
+    direct.sort(key=lambda item: (len(item.videos), len(item.question)))
+    done_count = len(items) - len(todo)
     with out.open("a", encoding="utf-8") as f:
-        for start in range(0, len(todo), batch_size):
-            chunk = todo[start:start + batch_size]
-            rows = []
-            for item in chunk:
-                enc = processor.encode_conversation(processor.messages(item.question), add_generation_prompt=True)
-                rows.append({"input_ids": enc.input_ids, "question_mask": enc.question_mask,
-                             "pixel_values": torch.zeros(0), "sensor_ids": torch.zeros(0, dtype=torch.long)})
-            batch = dict(processor.collate(rows, padding_side="left"))
-            # shuffled touch: the keys were swapped above, so each clip's cached tokens follow its pixels
-            videos = bank.batch([k for item in chunk for k in keys[item.id]])
-            if blank is not None:  # no tokens of the real clips may ride along with the blank ones
-                videos.pop("appearance_tokens", None)
-                videos["pixel_values"] = blank.unsqueeze(0).repeat(len(videos["sensor_ids"]), 1, 1, 1, 1)
-            batch.update(videos)
-            batch = {k: v.to(device) for k, v in batch.items()}
-            new = base.generate(**batch, max_new_tokens=max_new_tokens, do_sample=False, eos_token_id=eos,
-                                pad_token_id=pad)
-            texts = processor.tokenizer.batch_decode(new, skip_special_tokens=True)
-            cut = _stopped_by_budget(new, eos, max_new_tokens)
-            for item, text, was_cut in zip(chunk, texts, cut, strict=True):
-                record = {"id": item.id, "prediction": text.strip(), "task": item.task, "cut": was_cut, **tag}
+        for start, answered in zip(range(0, len(direct), batch_size),
+                                   replies([(item.question, keys[item.id]) for item in direct]), strict=True):
+            chunk = direct[start:start + batch_size]
+            for item, (text, was_cut) in zip(chunk, answered, strict=True):
+                record = {"id": item.id, "prediction": text, "task": item.task, "cut": was_cut, **tag}
                 if touch == "shuffled":  # which clips it was shown, for checking the control
                     record["touch_videos"] = [_key_name(k, root) for k in keys[item.id]]
                 f.write(json.dumps(record) + "\n")
             f.flush()
+            done_count += len(chunk)
             if progress is not None:
-                progress(len(items) - len(todo) + start + len(chunk), len(items))
+                progress(done_count, len(items))
+        if stepwise:
+            _answer_stepwise(stepwise, keys, out, replies, tag, f, root, touch,
+                             lambda n: progress(done_count + n, len(items)) if progress is not None else None)
     return out
+
+
+def _reasoned_tasks() -> tuple[str, ...]:
+    from tacreasoner.tasks.conclude import REASONED_TASKS
+
+    return REASONED_TASKS
+
+
+def _replies(base: Any, processor: Any, prompts: Sequence[tuple[str, Sequence[VideoKey]]], bank: Any,
+             blank: torch.Tensor | None, batch_size: int, max_new_tokens: int) -> Iterator[list[tuple[str, bool]]]:
+    """Greedy replies to ``prompts`` (question, its videos' keys; no keys for a text-only one), one list of
+    (reply, stopped by the budget) per chunk of ``batch_size``."""
+    device = next(base.parameters()).device
+    eos, pad = processor.eos_token_ids, processor.tokenizer.pad_token_id
+    for start in range(0, len(prompts), batch_size):
+        chunk = prompts[start:start + batch_size]
+        rows = []
+        for question, _ in chunk:
+            enc = processor.encode_conversation(processor.messages(question), add_generation_prompt=True)
+            rows.append({"input_ids": enc.input_ids, "question_mask": enc.question_mask,
+                         "pixel_values": torch.zeros(0), "sensor_ids": torch.zeros(0, dtype=torch.long)})
+        batch = dict(processor.collate(rows, padding_side="left"))
+        # shuffled touch: the keys were swapped by the caller, so each clip's cached tokens follow its pixels
+        videos = bank.batch([k for _, chunk_keys in chunk for k in chunk_keys])
+        if blank is not None:  # no tokens of the real clips may ride along with the blank ones
+            videos.pop("appearance_tokens", None)
+            videos["pixel_values"] = blank.unsqueeze(0).repeat(len(videos["sensor_ids"]), 1, 1, 1, 1)
+        batch.update(videos)
+        batch = {k: v.to(device) for k, v in batch.items()}
+        new = base.generate(**batch, max_new_tokens=max_new_tokens, do_sample=False, eos_token_id=eos,
+                            pad_token_id=pad)
+        texts = processor.tokenizer.batch_decode(new, skip_special_tokens=True)
+        yield [(text.strip(), cut) for text, cut in
+               zip(texts, _stopped_by_budget(new, eos, max_new_tokens), strict=True)]
+
+
+def steps_path(out_path: str | os.PathLike[str]) -> Path:
+    """Where the stepwise mode keeps its sub-questions' replies beside a predictions file (``<name>.steps.jsonl``)."""
+    out = Path(out_path)
+    return out.with_name(f"{out.stem}.steps.jsonl")
+
+
+def _answer_stepwise(items: Sequence[QAItem], keys: Mapping[str, Sequence[VideoKey]], out: Path,
+                     replies: Callable[..., Iterator[list[tuple[str, bool]]]],
+                     tag: Mapping[str, Any], f: Any, root: Path, touch: str,
+                     progress: Callable[[int], None]) -> None:
+    """Answer ``items`` in the stepwise mode (:mod:`tacreasoner.evaluate.stepwise`): their sub-questions (each asked
+    once, kept in :func:`steps_path` so a resumed run asks none twice), then each item's reply composed and written
+    to ``f``."""
+    from tacreasoner.evaluate.stepwise import STEP_TOKENS, conclude, steps_for
+
+    path = steps_path(out)
+    said: dict[str, str] = {}
+    if path.is_file():
+        with path.open(encoding="utf-8") as g:
+            for number, line in enumerate(g, 1):
+                try:
+                    record = json.loads(line)
+                    key, reply = record["key"], record["reply"]
+                except (json.JSONDecodeError, KeyError, TypeError):
+                    continue  # a line cut by a crash: asked again
+                if record.get("answered_by") != tag.get("answered_by"):
+                    raise ValueError(f"{path}:{number}: sub-questions answered by {record.get('answered_by')}, this "
+                                     f"run is {tag.get('answered_by')}; write to another --out rather than mix them")
+                said[key] = reply
+    steps = {s.key: s for item in items for s in steps_for(item, keys[item.id])}
+    todo = sorted((s for s in steps.values() if s.key not in said), key=lambda s: (len(s.videos), len(s.question)))
+    with path.open("a", encoding="utf-8") as g:
+        start = 0
+        for answered in replies([(s.question, s.videos) for s in todo], STEP_TOKENS):
+            for step, (text, was_cut) in zip(todo[start:start + len(answered)], answered, strict=True):
+                said[step.key] = text
+                g.write(json.dumps({"key": step.key, "reply": text, "cut": was_cut,
+                                    "answered_by": tag.get("answered_by")}) + "\n")
+            g.flush()
+            start += len(answered)
+            progress(len(items) * start // len(todo) - (start == len(todo)))  # the items follow once all are asked
+    for item in items:
+        composed = conclude(item, keys[item.id], said)
+        record = {"id": item.id, "prediction": composed.reply, "task": item.task, "cut": False, **tag,
+                  "answers": "stepwise", "steps": composed.steps, "guessed": composed.guessed}
+        if touch == "shuffled":
+            record["touch_videos"] = [_key_name(k, root) for k in keys[item.id]]
+        f.write(json.dumps(record) + "\n")
+    f.flush()
+    progress(len(items))
 
 
 def _stopped_by_budget(new: torch.Tensor, eos: Sequence[int], max_new_tokens: int) -> list[bool]:
@@ -372,29 +469,31 @@ def _key_name(key: VideoKey, root: Path) -> str:
 def answer_with_model(model_dir: Path, bench: Path, info: Any, items: Sequence[QAItem], path: Path, *,
                       batch_size: int = 32, max_new_tokens: int = REPLY_TOKENS, touch: str = "real",
                       touch_seed: int = 0, video_cache: Path | None = None,
-                      progress: Callable[[int, int], None] | None = None, dtype: str | None = None) -> Path:
+                      progress: Callable[[int, int], None] | None = None, dtype: str | None = None,
+                      answers: str = "direct") -> Path:
     """Answer ``items`` of the benchmark ``bench`` (``info``: its ``bench.json``) with the saved model in
-    ``model_dir`` (its weights cast to ``dtype``) into ``path``, resuming it. The model is loaded only when an item
-    is left to answer, so a finished file costs no model load (a re-run quickstart, a resumed evaluation)."""
+    ``model_dir`` (its weights cast to ``dtype``; ``answers``: :data:`ANSWER_MODES`) into ``path``, resuming it. The
+    model is loaded only when an item is left to answer, so a finished file costs no model load (a re-run
+    quickstart, a resumed evaluation)."""
     from tacreasoner.train.data import bench_video_root
 
-    who = answerer_id(model_dir, bench, dtype)
+    who = answerer_id(model_dir, bench, dtype, answers)
     if {item.id for item in items} <= _done_ids(path, touch, touch_seed, who):
         return path
     model, processor = load_trained(model_dir, dtype=dtype)
     return predict_items(model, processor, items, bench_video_root(bench, info), path, batch_size=batch_size,
                          max_new_tokens=max_new_tokens, progress=progress, touch=touch, touch_seed=touch_seed,
-                         answered_by=who, video_cache=video_cache)
+                         answered_by=who, video_cache=video_cache, answers=answers)
 
 
 def predict_split(model_dir: Path, bench: Path, split: str, out: Path, *, batch_size: int = 32,
                   max_new_tokens: int = REPLY_TOKENS, limit: int | None = None, touch: str = "real",
                   touch_seed: int = 0, video_cache: Path | None = None,
-                  dtype: str | None = None) -> tuple[list[QAItem], Path]:
+                  dtype: str | None = None, answers: str = "direct") -> tuple[list[QAItem], Path]:
     """Answer one split of a benchmark with a saved model into ``out``'s predictions file (resuming it), with a
     progress display; returns the items asked and the predictions path. ``video_cache``: a preprocessed-video
     folder to read and fill (a training run's), so that models answering the same clips decode them once.
-    ``dtype``: the weights' type when answering (:data:`ANSWER_DTYPES`)."""
+    ``dtype``: the weights' type when answering (:data:`ANSWER_DTYPES`); ``answers``: :data:`ANSWER_MODES`."""
     from tacreasoner.progress import ClipProgress
     from tacreasoner.tasks.bench import load_bench
 
@@ -406,5 +505,6 @@ def predict_split(model_dir: Path, bench: Path, split: str, out: Path, *, batch_
     label = split if touch == "real" else f"{split} ({touch} touch)"
     with ClipProgress(f"answering {label}", "items") as bar:
         answer_with_model(model_dir, bench, info, items, path, batch_size=batch_size, max_new_tokens=max_new_tokens,
-                          touch=touch, touch_seed=touch_seed, video_cache=video_cache, progress=bar, dtype=dtype)
+                          touch=touch, touch_seed=touch_seed, video_cache=video_cache, progress=bar, dtype=dtype,
+                          answers=answers)
     return items, path

@@ -31,7 +31,7 @@ from tacreasoner.tasks.scoring import TSA_LETTERS, _find_phrases, score_item
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
 __all__ = ["REASONED_TASKS", "Consistency", "Levels", "consistency", "implied_answers", "item_levels",
-           "needed_attributes", "option_levels", "parsed_answer", "stated_levels"]
+           "needed_attributes", "option_levels", "parsed_answer", "read_levels", "stated_levels"]
 
 REASONED_TASKS = ("SFD", "PC", "SOI", "OSC", "TSA")
 """Tasks over several objects whose answer follows from per-object levels."""
@@ -79,7 +79,7 @@ def option_levels(item: QAItem) -> list[Levels]:
     return out
 
 
-def _read_levels(text: str, attributes: Sequence[str], vocab: Mapping[str, Attribute]) -> Levels | None:
+def read_levels(text: str, attributes: Sequence[str], vocab: Mapping[str, Attribute]) -> Levels | None:
     """The one level of each attribute named in ``text``; None when an attribute is missing or named twice."""
     table = {phrase: (a, rank) for a in attributes for rank, phrase in enumerate(vocab[a].levels)}
     found = _find_phrases(text, table)
@@ -100,7 +100,7 @@ def stated_levels(item: QAItem, reasoning: str) -> tuple[list[Levels], list[Leve
 
     def read(pattern: re.Pattern[str], keys: Sequence[str]) -> list[Levels] | None:
         spans = {m.group(1).upper(): m.group(2) for m in reversed(list(pattern.finditer(reasoning)))}
-        levels = [_read_levels(spans[k], needed, vocab) if k in spans else None for k in keys]
+        levels = [read_levels(spans[k], needed, vocab) if k in spans else None for k in keys]
         return None if any(v is None for v in levels) else levels  # type: ignore[return-value]
 
     videos = read(_VIDEO, [str(v + 1) for v in range(len(item.videos))])
@@ -121,8 +121,10 @@ def _distance(a: Levels, b: Levels) -> int:
     return sum(abs(a[k] - b[k]) for k in a)
 
 
-def implied_answers(item: QAItem, videos: Sequence[Levels], options: Sequence[Levels] = ()) -> set[Any]:
-    """Every answer (scorer's parsed form) that these levels imply for ``item``'s question."""
+def implied_answers(item: QAItem, videos: Sequence[Levels], options: Sequence[Levels] = (),
+                    needs: Mapping[str, str] | None = None) -> set[Any]:
+    """Every answer (scorer's parsed form) that these levels imply for ``item``'s question; TSA weighs the levels by
+    ``needs`` (attribute → high | low; default the item's gold needs)."""
     if item.task in ("SFD", "PC", "SOI"):
         attribute = str(item.gold["attribute"])
         ranks = [int(v[attribute]) for v in videos]
@@ -137,7 +139,7 @@ def implied_answers(item: QAItem, videos: Sequence[Levels], options: Sequence[Le
             return _extremes(ranks, more)
         return {ranks[0] > ranks[1] if more else ranks[0] < ranks[1]}  # "is the first harder?" no when equal
     if item.task == "TSA":
-        scores = [suitability(item.gold["needs"], v) for v in videos]
+        scores = [suitability(item.gold["needs"] if needs is None else needs, v) for v in videos]
         return {TSA_LETTERS[i] for i in _extremes(scores, True)}
     if item.task == "OSC":
         if len(options) != len(videos):

@@ -1,0 +1,192 @@
+"""Describe each video in a pass of its own, then conclude by the rule: an answering mode for multi-object questions.
+
+SmolLM2-135M reads one clip fairly well when it is asked about that clip alone, and describes the second and third
+video of one prompt poorly; asked a question over several objects it answers at chance
+(benchmarks/results/physiclear_reasoning_gap_val.md). This mode keeps the model to what it does well. For a question
+over several objects (:data:`tacreasoner.tasks.conclude.REASONED_TASKS`) it asks the model:
+
+* for each video, the single-clip question of each property the answer needs (one video per pass);
+* for OSC, what the named objects usually feel like (text only: ``How do these objects usually feel to the touch?
+  (A) … (B) …``, the question ``data.knowledge`` trains);
+* for TSA, what the scenario needs (text only: ``You need an object for … What should it feel like?``, the question
+  ``data.scenario_knowledge`` trains over scenarios disjoint from TSA's);
+
+then :func:`tacreasoner.tasks.conclude.implied_answers` draws the conclusion from those readings, and the reply shows
+them and the step in the compact style, so a user sees what was read and why the answer follows::
+
+    <think>Video 1: soft. Video 2: hard. The softer is Video 1.</think><answer>the first object</answer>
+
+Every reply follows from the levels it states by construction; what the mode measures is how well the model reads.
+Where the readings tie, one of the tied answers is drawn by the item's id (reproducible, and unbiased across items).
+A reading the model gave in no known level word is taken as the middle level and marked ``(a guess)`` in the
+reply. Questions
+about one clip are answered in one pass, as the direct mode does. Each sub-question is asked once per clip (or per
+option list, or scenario), so items sharing a clip share its reading.
+"""
+
+from __future__ import annotations
+
+import random
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from tacreasoner.cot.compact import conclusion_step, describe
+from tacreasoner.cot.knowledge import QUESTION_GROUP, SCENARIO_QUESTION
+from tacreasoner.tasks.answers import ordinal_answer, osc_answer
+from tacreasoner.tasks.conclude import REASONED_TASKS, Levels, implied_answers, needed_attributes, read_levels
+from tacreasoner.tasks.extract import extract_answer
+from tacreasoner.tasks.schema import QAItem
+from tacreasoner.tasks.scoring import TSA_LETTERS
+from tacreasoner.tasks.templating import load_templates
+from tacreasoner.tasks.vocab import get_vocabulary
+
+__all__ = ["STEP_TOKENS", "Step", "Stepwise", "conclude", "read_needs", "steps_for"]
+
+STEP_TOKENS = 96
+"""Reply budget of one sub-question: a reading is a level word (~5 tokens), three named objects' levels ~40, a
+scenario's needs ~20. A model not taught the text-only questions may ramble on; its sub-reply is then cut here (and
+recorded as cut) rather than hold its whole batch to the item's budget."""
+
+READING_TEMPLATE = "tfa_choices"
+"""The single-clip wording each video is read with: it lists the level words, so the reply is one of them."""
+_OPTION = re.compile(r"\(([A-C])\)[^:\n(]*:\s*([^.\n(]*)")
+_NEED = re.compile(r"\b(high|low)\s+([a-z]+)", re.IGNORECASE)
+
+VideoKey = Any
+"""A video as the answering code keys it (``train.data.video_key``: path, start, end)."""
+
+
+@dataclass(frozen=True)
+class Step:
+    """One sub-question: the key it is shared under, its wording, and its videos (none for a text-only one)."""
+
+    key: str
+    question: str
+    videos: tuple[VideoKey, ...] = ()
+
+
+@dataclass
+class Stepwise:
+    """One item's composed reply and what it rests on."""
+
+    reply: str
+    steps: list[str]
+    guessed: list[str] = field(default_factory=list)
+    """What no sub-reply gave in a known word (``Video 2 hardness``, ``(B)``, ``needs``): taken as the middle level
+    (or, for a scenario, as needing nothing in particular)."""
+
+
+def _attributes(item: QAItem) -> list[str]:
+    """What each video is read for: the asked attribute; every attribute for OSC (matching) and TSA (its needs come
+    from the model, so any attribute may count)."""
+    return list(get_vocabulary(item.vocabulary)) if item.task == "TSA" else needed_attributes(item)
+
+
+def _reading_key(attribute: str, key: VideoKey) -> str:
+    return f"read|{attribute}|{key[0]}|{key[1]}|{key[2]}"
+
+
+def _reading_question(item: QAItem, attribute: str) -> str:
+    template = next(t for t in load_templates()["tfa"] if t.id == READING_TEMPLATE)
+    quoted = [f'"{phrase}"' for phrase in get_vocabulary(item.vocabulary)[attribute].levels]
+    return template.render(attribute=attribute, choices=f"{', '.join(quoted[:-1])} or {quoted[-1]}")
+
+
+def _options_text(item: QAItem) -> str:
+    return " ".join(f"({'ABC'[k]}) {name}" for k, name in enumerate(item.options))
+
+
+def steps_for(item: QAItem, videos: Sequence[VideoKey]) -> list[Step]:
+    """The sub-questions of one multi-object item whose videos are ``videos`` (its own, or under the removed-touch
+    control the ones it is shown instead)."""
+    if item.task not in REASONED_TASKS:
+        raise ValueError(f"item {item.id!r}: task {item.task} is answered in one pass, not stepwise")
+    steps = [Step(_reading_key(a, key), _reading_question(item, a), (key,))
+             for key in videos for a in _attributes(item)]
+    if item.task == "OSC":
+        steps.append(Step(f"objects|{item.vocabulary}|{_options_text(item)}",
+                          QUESTION_GROUP.format(options=_options_text(item))))
+    if item.task == "TSA":
+        scenario = str(item.meta.get("scenario_text") or item.gold["scenario"])
+        steps.append(Step(f"scenario|{item.vocabulary}|{scenario}", SCENARIO_QUESTION.format(scenario=scenario)))
+    return steps
+
+
+def _said(reply: str) -> str:
+    """The answer part of a sub-reply (the whole reply when it has no ``<answer>``)."""
+    return extract_answer(reply, "lenient") or reply
+
+
+def read_needs(reply: str, attributes: Sequence[str]) -> dict[str, str]:
+    """``… needs high hardness and low roughness.`` → {hardness: high, roughness: low} (known attributes only; the
+    first mention of an attribute wins)."""
+    out: dict[str, str] = {}
+    for level, attribute in _NEED.findall(_said(reply)):
+        if attribute.lower() in attributes and attribute.lower() not in out:
+            out[attribute.lower()] = level.lower()
+    return out
+
+
+def _options_read(reply: str, item: QAItem) -> list[Levels | None]:
+    vocab = get_vocabulary(item.vocabulary)
+    spans = {m.group(1): m.group(2) for m in reversed(list(_OPTION.finditer(_said(reply))))}
+    return [read_levels(spans[letter], list(vocab), vocab) if letter in spans else None
+            for letter in "ABC"[: len(item.options)]]
+
+
+def _answer_text(item: QAItem, answer: Any) -> str:
+    """The parsed answer in the form the question asks (the gold answer's form)."""
+    if item.task == "PC":
+        return str(answer)
+    if item.task == "TSA":
+        return str(answer)
+    if item.task == "OSC":
+        return osc_answer(list(answer))
+    if item.task == "SFD" and item.gold["kind"] == "yesno":
+        return "yes" if answer else "no"
+    return ordinal_answer(int(answer))
+
+
+def conclude(item: QAItem, videos: Sequence[VideoKey], replies: Mapping[str, str]) -> Stepwise:
+    """The reply to ``item`` composed from its sub-questions' ``replies`` (key → reply text)."""
+    vocab = get_vocabulary(item.vocabulary)
+    steps = steps_for(item, videos)
+    guessed: list[str] = []
+    levels: list[Levels] = []
+    for v, key in enumerate(videos):
+        mine: Levels = {}
+        for attribute in _attributes(item):
+            read = read_levels(_said(replies[_reading_key(attribute, key)]), [attribute], vocab)
+            if read is None:
+                guessed.append(f"Video {v + 1} {attribute}")
+            mine.update(read or {attribute: 1})
+        levels.append(mine)
+    options: list[Levels] = []
+    if item.task == "OSC":
+        for k, read in enumerate(_options_read(replies[steps[-1].key], item)):
+            if read is None:
+                guessed.append(f"({'ABC'[k]})")
+            options.append(read or dict.fromkeys(vocab, 1))
+    needs = read_needs(replies[steps[-1].key], list(vocab)) if item.task == "TSA" else None
+    if needs == {}:
+        guessed.append("needs")
+        implied: set[Any] = set(TSA_LETTERS[: len(videos)])
+    else:
+        implied = implied_answers(item, levels, options, needs)
+    answer = random.Random(item.id).choice(sorted(implied, key=str))
+
+    def said(text: str, who: str) -> str:
+        return text + (" (a guess)" if any(g.startswith(who) for g in guessed) else "")
+
+    shown = [{a: lv[a] for a in lv if a in needs} for lv in levels] if needs else levels
+    lines = [said(f"Video {v + 1}: {describe(lv, vocab)}", f"Video {v + 1} ") + "." for v, lv in enumerate(shown)]
+    lines += [said(f"({'ABC'[k]}) {name}: {describe(options[k], vocab)}", f"({'ABC'[k]})") + "."
+              for k, name in enumerate(item.options) if item.task == "OSC"]
+    if needs == {}:
+        lines.append(f"What the scenario needs is unclear; a guess: Video {TSA_LETTERS.index(answer) + 1}.")
+    else:
+        lines.append(conclusion_step(item, answer, vocab, needs))
+    return Stepwise(f"<think>{' '.join(lines)}</think><answer>{_answer_text(item, answer)}</answer>",
+                    [s.key for s in steps], guessed)

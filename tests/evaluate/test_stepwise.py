@@ -1,0 +1,191 @@
+"""The stepwise answering mode: each video (and named object, and scenario) read in a pass of its own, the conclusion
+drawn by the rule, and the reply showing both; resumable, each sub-question asked once."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tacreasoner.evaluate.stepwise import conclude, read_needs, steps_for
+from tacreasoner.tasks.builders import build_items
+from tacreasoner.tasks.conclude import REASONED_TASKS, consistency, item_levels, option_levels, parsed_answer
+from tacreasoner.tasks.extract import split_reasoning
+from tacreasoner.tasks.schema import QAItem
+from tacreasoner.tasks.vocab import get_vocabulary
+from tests.tasks.clipfactory import make_clips
+
+TASKS = ["SFD", "PC", "SOI", "OSC", "TSA"]
+
+
+@pytest.fixture(scope="module")
+def items() -> list[QAItem]:
+    return build_items(make_clips(n_objects=30, repeats=2), tasks=TASKS, vocabulary="physiclear", split="val", seed=0)
+
+
+def _keys(item: QAItem) -> list[tuple[str, None, None]]:
+    return [(f"/v/{v.clip_id}.mp4", None, None) for v in item.videos]
+
+
+def _gold_replies(item: QAItem) -> dict[str, str]:
+    """Sub-replies a perfect reader would give: each video's gold levels, the options' and the scenario's needs."""
+    vocab = get_vocabulary(item.vocabulary)
+    videos = item_levels(item)
+    out = {}
+    for step in steps_for(item, _keys(item)):
+        kind, *rest = step.key.split("|")
+        if kind == "read":
+            attribute, path = rest[0], rest[1]
+            v = [k[0] for k in _keys(item)].index(path)
+            level = videos[v].get(attribute, 0)  # TSA reads every attribute: those not needed are not labelled
+            out[step.key] = f"<answer>{vocab[attribute].phrase(level)}</answer>"
+        elif kind == "objects":
+            out[step.key] = "<answer>" + " ".join(
+                f"({'ABC'[k]}) {name}: {', '.join(vocab[a].phrase(lv[a]) for a in vocab)}."
+                for k, (name, lv) in enumerate(zip(item.options, option_levels(item), strict=True))) + "</answer>"
+        else:
+            needs = " and ".join(f"{level} {a}" for a, level in item.gold["needs"].items())
+            out[step.key] = f"<answer>It needs {needs}.</answer>"
+    return out
+
+
+def test_perfect_readings_give_the_gold_answer_unless_the_levels_tie(items: list[QAItem]) -> None:
+    right = tied = 0
+    for item in items:
+        composed = conclude(item, _keys(item), _gold_replies(item))
+        assert composed.guessed == []
+        assert consistency(item, composed.reply).consistent, composed.reply
+        gold = parsed_answer(item, f"<answer>{item.answer}</answer>")
+        if parsed_answer(item, composed.reply) == gold:
+            right += 1
+        else:
+            tied += 1
+            reasoning, _ = split_reasoning(composed.reply)
+            assert reasoning is not None
+    assert {i.task for i in items} == set(TASKS)
+    assert right > 0.8 * len(items) and tied < 0.2 * len(items)
+
+
+def test_the_reply_states_each_reading_and_the_step(items: list[QAItem]) -> None:
+    pc = next(i for i in items if i.task == "PC")
+    keys = _keys(pc)
+    attribute = pc.gold["attribute"]
+    vocab = get_vocabulary("physiclear")[attribute]
+    replies = {s.key: f"<answer>{vocab.levels[2 - v]}</answer>" for v, s in enumerate(steps_for(pc, keys))}
+    reply = conclude(pc, keys, replies).reply
+    assert reply == (f"<think>Video 1: {vocab.levels[2]}. Video 2: {vocab.levels[1]}. Video 1 has more {attribute} "
+                     f"than Video 2.</think><answer>more</answer>")
+
+
+def test_an_unread_level_is_marked_as_a_guess_and_still_concluded(items: list[QAItem]) -> None:
+    soi = next(i for i in items if i.task == "SOI")
+    replies = _gold_replies(soi)
+    first = steps_for(soi, _keys(soi))[0].key
+    replies[first] = "<answer>I cannot tell</answer>"
+    composed = conclude(soi, _keys(soi), replies)
+    assert composed.guessed == [f"Video 1 {soi.gold['attribute']}"]
+    assert "(a guess)" in composed.reply and consistency(soi, composed.reply).consistent
+
+
+def test_a_scenario_whose_needs_are_not_said_is_a_marked_guess(items: list[QAItem]) -> None:
+    tsa = next(i for i in items if i.task == "TSA")
+    replies = _gold_replies(tsa)
+    replies[steps_for(tsa, _keys(tsa))[-1].key] = "<answer>It should feel nice.</answer>"
+    composed = conclude(tsa, _keys(tsa), replies)
+    assert composed.guessed == ["needs"] and "unclear" in composed.reply
+    assert parsed_answer(tsa, composed.reply) in ("A", "B")
+
+
+def test_needs_are_read_in_known_attributes_only() -> None:
+    attributes = ["hardness", "roughness", "bumpiness"]
+    assert read_needs("<answer>Zesting a lemon needs high roughness and low hardness.</answer>", attributes) == {
+        "roughness": "high", "hardness": "low"}
+    assert read_needs("needs high friction and LOW bumpiness", attributes) == {"bumpiness": "low"}
+    assert read_needs("soft and smooth", attributes) == {}
+
+
+def test_sub_questions_are_shared_by_items_on_the_same_clip(items: list[QAItem]) -> None:
+    sfd = [i for i in items if i.task == "SFD"]
+    steps = [s for i in sfd for s in steps_for(i, _keys(i))]
+    assert len({s.key for s in steps}) < len(steps)  # clips recur across items: asked once each
+    osc = next(i for i in items if i.task == "OSC")
+    text_only = [s for s in steps_for(osc, _keys(osc)) if not s.videos]
+    assert len(text_only) == 1 and all(f"({'ABC'[k]}) {n}" in text_only[0].question for k, n in enumerate(osc.options))
+    single = build_items(make_clips(n_objects=6, repeats=1), tasks=["TFA-hardness"], vocabulary="physiclear",
+                         split="val", seed=0)
+    with pytest.raises(ValueError, match="one pass"):
+        steps_for(single[0], _keys(single[0]))
+
+
+@pytest.fixture(scope="module")
+def answered(model_dir: Path, bench: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """The untrained tiny model answering a few single- and multi-object test items stepwise, then again."""
+    from tacreasoner.evaluate.predict import load_trained, predict_items
+    from tacreasoner.tasks.bench import load_bench
+    from tacreasoner.train.data import bench_video_root
+
+    model, processor = load_trained(model_dir, device="cpu")
+    info, items = load_bench(bench, "test")
+    picked = [next(i for i in items if i.task == t) for t in ("TFA-hardness", *REASONED_TASKS)
+              if any(i.task == t for i in items)]
+    out = tmp_path_factory.mktemp("stepwise") / "predictions" / "test.jsonl"
+    calls: list[int] = []
+    real = model.generate
+
+    def counted(**kwargs: Any) -> Any:
+        calls.append(int(kwargs["input_ids"].shape[0]))
+        return real(**kwargs)
+
+    model.generate = counted
+    try:
+        predict_items(model, processor, picked, bench_video_root(bench, info), out, max_new_tokens=8,
+                      answers="stepwise", answered_by="me")
+        first = list(calls)
+        predict_items(model, processor, picked, bench_video_root(bench, info), out, max_new_tokens=8,
+                      answers="stepwise", answered_by="me")
+    finally:
+        model.generate = real
+    return {"items": picked, "out": out, "first": first, "again": calls[len(first):], "model": model,
+            "processor": processor, "root": bench_video_root(bench, info)}
+
+
+def test_stepwise_answers_write_composed_replies_and_their_sub_replies(answered: dict[str, Any]) -> None:
+    from tacreasoner.evaluate.predict import steps_path
+
+    lines = [json.loads(line) for line in answered["out"].read_text().splitlines()]
+    assert sorted(r["id"] for r in lines) == sorted(i.id for i in answered["items"])
+    by_task = {r["task"]: r for r in lines}
+    assert "answers" not in by_task["TFA-hardness"]  # one clip: answered in one pass
+    reasoned = [t for t in REASONED_TASKS if t in by_task]
+    assert len(reasoned) >= 2, reasoned
+    for task in reasoned:
+        record = by_task[task]
+        assert record["answers"] == "stepwise" and record["prediction"].startswith("<think>Video 1: ")
+        assert record["prediction"].endswith("</answer>") and record["steps"]
+    steps = [json.loads(line) for line in steps_path(answered["out"]).read_text().splitlines()]
+    keys = [s["key"] for s in steps]
+    assert len(keys) == len(set(keys)) and all(s["answered_by"] == "me" for s in steps)
+    assert {k for r in lines for k in r.get("steps", [])} == set(keys)
+    assert sum(answered["first"]) == 1 + len(keys)  # one generation per item or sub-question, none twice
+    assert answered["again"] == []  # a finished file asks nothing again
+
+
+def test_sub_replies_of_another_answerer_are_refused(answered: dict[str, Any]) -> None:
+    from tacreasoner.evaluate.predict import predict_items, steps_path
+
+    out = answered["out"].with_name("other.jsonl")
+    steps_path(out).write_text(steps_path(answered["out"]).read_text())
+    with pytest.raises(ValueError, match="another --out"):
+        predict_items(answered["model"], answered["processor"], answered["items"], answered["root"], out,
+                      answers="stepwise", answered_by="someone else")
+
+
+def test_an_unknown_answering_mode_is_refused_by_name(tmp_path: Path) -> None:
+    from tacreasoner.evaluate.predict import answerer_id, check_answers
+
+    with pytest.raises(ValueError, match="answers must be one of direct, stepwise"):
+        check_answers("chain")
+    assert answerer_id(tmp_path, tmp_path).endswith("]; bench=" + str(tmp_path.resolve()))
+    assert answerer_id(tmp_path, tmp_path, answers="stepwise").endswith("; answers=stepwise")
