@@ -20,6 +20,8 @@
 #   plain_know plain answers (as rec) + the same name-removed object knowledge and scenario knowledge as text: the
 #              model the stepwise answering mode (evaluate --answer-mode stepwise) asks what named objects feel like
 #              and what a scenario needs; Stage I rec's
+# STEPWISE=1 also answers val with --answers stepwise (each video read in a pass of its own, the conclusion by the
+# rule: evaluate/stepwise.py) into $W/eval_val_stepwise/<variant>.seeds…, a row of its own in the table.
 # TRAIN_ONLY=1 stops after training (to train variants and seeds in parallel, then evaluate); TABLE=0 skips the
 # table; EVAL=0 tables what was evaluated before without evaluating; NAME names the result
 # files (default physiclear_val); MACHINE says where it ran (default: 2 CPU cores, this machine).
@@ -105,8 +107,13 @@ for v in "${VARIANTS[@]}"; do
             --split val --out "$W/eval_val/$tag"
         step "$tag.eval_val_heldout" "$W/eval_val_heldout/$tag/octopi.json" $TR evaluate-physiclear "${models[@]}" \
             --data "$DATA" --split val --wording heldout --out "$W/eval_val_heldout/$tag"
+        [ "${STEPWISE:-0}" = 1 ] && step "$tag.eval_val_stepwise" "$W/eval_val_stepwise/$tag/octopi.json" \
+            $TR evaluate-physiclear "${models[@]}" --data "$DATA" --split val --answers stepwise \
+            --out "$W/eval_val_stepwise/$tag"
     fi
     [ -e "$W/eval_val/$tag/octopi.json" ] && rows+=(--row "${LABEL[$v]} (${#vseeds[@]} seed(s))=$W/eval_val/$tag")
+    [ -e "$W/eval_val_stepwise/$tag/octopi.json" ] && \
+        rows+=(--row "${LABEL[$v]}, stepwise answers (${#vseeds[@]} seed(s))=$W/eval_val_stepwise/$tag")
     [ -e "$W/eval_val_heldout/$tag/octopi.json" ] && \
         heldout_rows+=(--row "${LABEL[$v]}, held-out wordings (${#vseeds[@]} seed(s))=$W/eval_val_heldout/$tag")
 done

@@ -3,13 +3,14 @@ drawn by the rule, and the reply showing both; resumable, each sub-question aske
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from tacreasoner.evaluate.stepwise import conclude, read_needs, steps_for
+from tacreasoner.evaluate.stepwise import conclude, question_view, read_needs, steps_for
 from tacreasoner.tasks.builders import build_items
 from tacreasoner.tasks.conclude import REASONED_TASKS, consistency, item_levels, option_levels, parsed_answer
 from tacreasoner.tasks.extract import split_reasoning
@@ -29,12 +30,18 @@ def _keys(item: QAItem) -> list[tuple[str, None, None]]:
     return [(f"/v/{v.clip_id}.mp4", None, None) for v in item.videos]
 
 
+def _view(item: QAItem) -> QAItem:
+    view = question_view(item)
+    assert view is not None, item.question
+    return view
+
+
 def _gold_replies(item: QAItem) -> dict[str, str]:
     """Sub-replies a perfect reader would give: each video's gold levels, the options' and the scenario's needs."""
     vocab = get_vocabulary(item.vocabulary)
     videos = item_levels(item)
     out = {}
-    for step in steps_for(item, _keys(item)):
+    for step in steps_for(_view(item), _keys(item)):
         kind, *rest = step.key.split("|")
         if kind == "read":
             attribute, path = rest[0], rest[1]
@@ -54,7 +61,7 @@ def _gold_replies(item: QAItem) -> dict[str, str]:
 def test_perfect_readings_give_the_gold_answer_unless_the_levels_tie(items: list[QAItem]) -> None:
     right = tied = 0
     for item in items:
-        composed = conclude(item, _keys(item), _gold_replies(item))
+        composed = conclude(_view(item), _keys(item), _gold_replies(item))
         assert composed.guessed == []
         assert consistency(item, composed.reply).consistent, composed.reply
         gold = parsed_answer(item, f"<answer>{item.answer}</answer>")
@@ -73,8 +80,8 @@ def test_the_reply_states_each_reading_and_the_step(items: list[QAItem]) -> None
     keys = _keys(pc)
     attribute = pc.gold["attribute"]
     vocab = get_vocabulary("physiclear")[attribute]
-    replies = {s.key: f"<answer>{vocab.levels[2 - v]}</answer>" for v, s in enumerate(steps_for(pc, keys))}
-    reply = conclude(pc, keys, replies).reply
+    replies = {s.key: f"<answer>{vocab.levels[2 - v]}</answer>" for v, s in enumerate(steps_for(_view(pc), keys))}
+    reply = conclude(_view(pc), keys, replies).reply
     assert reply == (f"<think>Video 1: {vocab.levels[2]}. Video 2: {vocab.levels[1]}. Video 1 has more {attribute} "
                      f"than Video 2.</think><answer>more</answer>")
 
@@ -82,9 +89,9 @@ def test_the_reply_states_each_reading_and_the_step(items: list[QAItem]) -> None
 def test_an_unread_level_is_marked_as_a_guess_and_still_concluded(items: list[QAItem]) -> None:
     soi = next(i for i in items if i.task == "SOI")
     replies = _gold_replies(soi)
-    first = steps_for(soi, _keys(soi))[0].key
+    first = steps_for(_view(soi), _keys(soi))[0].key
     replies[first] = "<answer>I cannot tell</answer>"
-    composed = conclude(soi, _keys(soi), replies)
+    composed = conclude(_view(soi), _keys(soi), replies)
     assert composed.guessed == [f"Video 1 {soi.gold['attribute']}"]
     assert "(a guess)" in composed.reply and consistency(soi, composed.reply).consistent
 
@@ -92,8 +99,8 @@ def test_an_unread_level_is_marked_as_a_guess_and_still_concluded(items: list[QA
 def test_a_scenario_whose_needs_are_not_said_is_a_marked_guess(items: list[QAItem]) -> None:
     tsa = next(i for i in items if i.task == "TSA")
     replies = _gold_replies(tsa)
-    replies[steps_for(tsa, _keys(tsa))[-1].key] = "<answer>It should feel nice.</answer>"
-    composed = conclude(tsa, _keys(tsa), replies)
+    replies[steps_for(_view(tsa), _keys(tsa))[-1].key] = "<answer>It should feel nice.</answer>"
+    composed = conclude(_view(tsa), _keys(tsa), replies)
     assert composed.guessed == ["needs"] and "unclear" in composed.reply
     assert parsed_answer(tsa, composed.reply) in ("A", "B")
 
@@ -108,15 +115,33 @@ def test_needs_are_read_in_known_attributes_only() -> None:
 
 def test_sub_questions_are_shared_by_items_on_the_same_clip(items: list[QAItem]) -> None:
     sfd = [i for i in items if i.task == "SFD"]
-    steps = [s for i in sfd for s in steps_for(i, _keys(i))]
+    steps = [s for i in sfd for s in steps_for(_view(i), _keys(i))]
     assert len({s.key for s in steps}) < len(steps)  # clips recur across items: asked once each
     osc = next(i for i in items if i.task == "OSC")
-    text_only = [s for s in steps_for(osc, _keys(osc)) if not s.videos]
+    text_only = [s for s in steps_for(_view(osc), _keys(osc)) if not s.videos]
     assert len(text_only) == 1 and all(f"({'ABC'[k]}) {n}" in text_only[0].question for k, n in enumerate(osc.options))
     single = build_items(make_clips(n_objects=6, repeats=1), tasks=["TFA-hardness"], vocabulary="physiclear",
                          split="val", seed=0)
+    assert question_view(single[0]) is None
     with pytest.raises(ValueError, match="one pass"):
         steps_for(single[0], _keys(single[0]))
+
+
+@pytest.mark.parametrize("vocabulary", ["physiclear", "vtv150k"])
+def test_the_mode_reads_what_is_asked_from_the_words_and_sees_no_gold(vocabulary: str) -> None:
+    from tacreasoner.tasks.paraphrase import reword_items
+
+    tasks = ["SFD", "PC", "SOI", "OSC", "TSA"] if vocabulary == "physiclear" else ["SFD", "SOI", "OSC", "TSA"]
+    built = build_items(make_clips(n_objects=30, repeats=2), tasks=tasks, vocabulary=vocabulary, split="val", seed=0)
+    every = built + reword_items(built, "heldout") + reword_items(built, "train")
+    for item in every:
+        view = _view(item)
+        assert view.answer == "?" and view.objects == [] and "ranks" not in view.meta
+        assert set(view.gold) <= {"attribute", "direction", "kind"}
+        assert {k: item.gold[k] for k in view.gold} == view.gold, item.question
+    sfd = next(i for i in built if i.task == "SFD")
+    word = sfd.meta["slots"]["comparative"]
+    assert question_view(dataclasses.replace(sfd, question=sfd.question.replace(word, "different"))) is None
 
 
 @pytest.fixture(scope="module")

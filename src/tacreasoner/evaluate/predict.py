@@ -315,8 +315,9 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
 
     if progress is not None:
         progress(len(items) - len(todo), len(items))
-    stepwise = [item for item in todo if answers == "stepwise" and item.task in _reasoned_tasks()]
-    direct = [item for item in todo if item not in stepwise]
+    views = _question_views(todo) if answers == "stepwise" else {}
+    stepwise = [item for item in todo if item.id in views]
+    direct = [item for item in todo if item.id not in views]
     # similar lengths together: less padding in each generate call
     direct.sort(key=lambda item: (len(item.videos), len(item.question)))
     done_count = len(items) - len(todo)
@@ -334,15 +335,18 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
             if progress is not None:
                 progress(done_count, len(items))
         if stepwise:
-            _answer_stepwise(stepwise, keys, out, replies, tag, f, root, touch,
+            _answer_stepwise([views[item.id] for item in stepwise], keys, out, replies, tag, f, root, touch,
                              lambda n: progress(done_count + n, len(items)) if progress is not None else None)
     return out
 
 
-def _reasoned_tasks() -> tuple[str, ...]:
-    from tacreasoner.tasks.conclude import REASONED_TASKS
+def _question_views(items: Sequence[QAItem]) -> dict[str, QAItem]:
+    """id → the stepwise mode's view of each item it answers (the others, single-clip questions and comparisons
+    whose words do not say what they ask, are answered in one pass)."""
+    from tacreasoner.evaluate.stepwise import question_view
 
-    return REASONED_TASKS
+    views = {item.id: question_view(item) for item in items}
+    return {item_id: view for item_id, view in views.items() if view is not None}
 
 
 def _replies(base: Any, processor: Any, prompts: Sequence[tuple[str, Sequence[VideoKey]]], bank: Any,

@@ -26,6 +26,7 @@ option list, or scenario), so items sharing a clip share its reading.
 
 from __future__ import annotations
 
+import dataclasses
 import random
 import re
 from collections.abc import Mapping, Sequence
@@ -35,14 +36,14 @@ from typing import Any
 from tacreasoner.cot.compact import conclusion_step, describe
 from tacreasoner.cot.knowledge import QUESTION_GROUP, SCENARIO_QUESTION
 from tacreasoner.tasks.answers import ordinal_answer, osc_answer
-from tacreasoner.tasks.conclude import REASONED_TASKS, Levels, implied_answers, needed_attributes, read_levels
+from tacreasoner.tasks.conclude import REASONED_TASKS, Levels, asked, implied_answers, needed_attributes, read_levels
 from tacreasoner.tasks.extract import extract_answer
 from tacreasoner.tasks.schema import QAItem
 from tacreasoner.tasks.scoring import TSA_LETTERS
 from tacreasoner.tasks.templating import load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
 
-__all__ = ["STEP_TOKENS", "Step", "Stepwise", "conclude", "read_needs", "steps_for"]
+__all__ = ["STEP_TOKENS", "Step", "Stepwise", "conclude", "question_view", "read_needs", "steps_for"]
 
 STEP_TOKENS = 96
 """Reply budget of one sub-question: a reading is a level word (~5 tokens), three named objects' levels ~40, a
@@ -78,6 +79,24 @@ class Stepwise:
     (or, for a scenario, as needing nothing in particular)."""
 
 
+def question_view(item: QAItem) -> QAItem | None:
+    """``item`` as the mode may see it: the question, its videos and options, and what the question asks read from
+    its words (:func:`tacreasoner.tasks.conclude.asked`), with no gold answer, gold levels or scenario needs. None when
+    the words do not say what is asked (the item is then answered in one pass)."""
+    if item.task not in REASONED_TASKS:
+        return None
+    gold: dict[str, Any] = {}
+    if item.task in ("SFD", "PC", "SOI"):
+        found = asked(item.task, item.question, item.vocabulary)
+        if found is None:
+            return None
+        gold = found
+    meta = {k: item.meta[k] for k in ("scenario_text", "answer_form") if k in item.meta}
+    if item.task == "TSA" and "scenario_text" not in meta:
+        return None
+    return dataclasses.replace(item, answer="?", gold=gold, meta=meta, objects=[])
+
+
 def _attributes(item: QAItem) -> list[str]:
     """What each video is read for: the asked attribute; every attribute for OSC (matching) and TSA (its needs come
     from the model, so any attribute may count)."""
@@ -99,8 +118,8 @@ def _options_text(item: QAItem) -> str:
 
 
 def steps_for(item: QAItem, videos: Sequence[VideoKey]) -> list[Step]:
-    """The sub-questions of one multi-object item whose videos are ``videos`` (its own, or under the removed-touch
-    control the ones it is shown instead)."""
+    """The sub-questions of one multi-object item (a :func:`question_view`) whose videos are ``videos`` (its own, or
+    under the removed-touch control the ones it is shown instead)."""
     if item.task not in REASONED_TASKS:
         raise ValueError(f"item {item.id!r}: task {item.task} is answered in one pass, not stepwise")
     steps = [Step(_reading_key(a, key), _reading_question(item, a), (key,))
@@ -109,7 +128,7 @@ def steps_for(item: QAItem, videos: Sequence[VideoKey]) -> list[Step]:
         steps.append(Step(f"objects|{item.vocabulary}|{_options_text(item)}",
                           QUESTION_GROUP.format(options=_options_text(item))))
     if item.task == "TSA":
-        scenario = str(item.meta.get("scenario_text") or item.gold["scenario"])
+        scenario = str(item.meta["scenario_text"])
         steps.append(Step(f"scenario|{item.vocabulary}|{scenario}", SCENARIO_QUESTION.format(scenario=scenario)))
     return steps
 
@@ -146,11 +165,13 @@ def _answer_text(item: QAItem, answer: Any) -> str:
         return osc_answer(list(answer))
     if item.task == "SFD" and item.gold["kind"] == "yesno":
         return "yes" if answer else "no"
+    if item.meta.get("answer_form") == "letter":  # a training wording that letters the objects
+        return "ABC"[int(answer)]
     return ordinal_answer(int(answer))
 
 
 def conclude(item: QAItem, videos: Sequence[VideoKey], replies: Mapping[str, str]) -> Stepwise:
-    """The reply to ``item`` composed from its sub-questions' ``replies`` (key → reply text)."""
+    """The reply to ``item`` (a :func:`question_view`) composed from its sub-questions' ``replies`` (key → reply)."""
     vocab = get_vocabulary(item.vocabulary)
     steps = steps_for(item, videos)
     guessed: list[str] = []

@@ -10,7 +10,8 @@ interrupted run resumes):
 4. per seed, Stage I and Stage II of the shipped config (``physiclear-smollm2-cpu.yaml``: the paper's core model,
    no read-out heads);
 5. the folder's val objects (when it has them) answered by every seed's model, in the benchmark's wordings and in
-   held-out wordings no training used (``evaluate-physiclear``).
+   held-out wordings no training used (``evaluate-physiclear``), questions over several objects answered stepwise
+   (``evaluate.physiclear.RECOMMENDED_ANSWERS``; into ``DIR/eval/val_stepwise`` and ``val_heldout_stepwise``).
 
 It writes ``DIR/recipe.json`` (what ran, how long, the scores) and ``DIR/report.md``. The held-out test objects are
 scored afterwards with ``evaluate-physiclear --model DIR/train/seed0/stage2/model --data TEST_FOLDER``.
@@ -27,6 +28,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from tacreasoner.evaluate.physiclear import RECOMMENDED_ANSWERS
 from tacreasoner.recipes.run_folder import RunFolder
 
 __all__ = ["RECIPE_CONFIG", "RecipePaths", "recipe_config", "run_recipe"]
@@ -42,8 +44,11 @@ class RecipePaths(RunFolder):
     def model(self, seed: int) -> Path:
         return self.train(seed) / "stage2" / "model"
 
-    def evaluation(self, wording: str) -> Path:
-        return self.root / "eval" / ("val" if wording == "benchmark" else f"val_{wording}")
+    def evaluation(self, wording: str, answers: str = "direct") -> Path:
+        """``eval/val[_heldout][_stepwise]``: one folder per wording and answering mode (a folder answered one way is
+        never resumed another way)."""
+        return self.root / "eval" / ("val" + ("" if wording == "benchmark" else f"_{wording}")
+                                     + ("" if answers == "direct" else f"_{answers}"))
 
 
 def recipe_config(paths: RecipePaths, seed: int, config: str | Path | None = None,
@@ -98,8 +103,8 @@ def run_recipe(data: str | Path, out: str | Path, *, seeds: Sequence[int] = (0,)
     if evaluate and "val" in labelled:
         models = [paths.model(s) for s in seeds]
         for wording in ("benchmark", "heldout"):
-            where = paths.evaluation(wording)
-            step(f"evaluate val ({wording} wordings)", _evaluated(where, models),
+            where = paths.evaluation(wording, RECOMMENDED_ANSWERS)
+            step(f"evaluate val ({wording} wordings, {RECOMMENDED_ANSWERS} answers)", _evaluated(where, models),
                  lambda where=where, wording=wording: _evaluate(models, data, where, wording, progress, say))
             if (where / "octopi.json").is_file():
                 results[f"val_{wording}"] = _summary(where)
@@ -139,14 +144,18 @@ def _train(config: Any, stage: int) -> None:
 
 def _evaluated(where: Path, models: Sequence[Path]) -> bool:
     path = where / "octopi.json"
-    return path.is_file() and json.loads(path.read_text()).get("models") == [str(m) for m in models]
+    if not path.is_file():
+        return False
+    done = json.loads(path.read_text())
+    return done.get("models") == [str(m) for m in models] and done.get("answers", "direct") == RECOMMENDED_ANSWERS
 
 
 def _evaluate(models: Sequence[Path], data: Path, where: Path, wording: str,
               progress: Callable[[str], Callable[[int, int], None] | None] | None, say: Callable[[str], None]) -> None:
     from tacreasoner.evaluate.physiclear import evaluate_folder
 
-    evaluate_folder(models, data, where, split="val", wording=wording, progress=progress, say=say)
+    evaluate_folder(models, data, where, split="val", wording=wording, answers=RECOMMENDED_ANSWERS, progress=progress,
+                    say=say)
 
 
 def _summary(where: Path) -> dict[str, Any]:
@@ -164,8 +173,9 @@ def _report(record: dict[str, Any], paths: RecipePaths) -> str:
              f" {record['minutes_total']} minutes of steps run in this folder: "
              + ", ".join(f"{k} {v:.0f} s" for k, v in record["seconds"].items()),
              "- Models: " + ", ".join(f"`{paths.model(s)}`" for s in record["seeds"]), ""]
-    for key, title in (("val_benchmark", "Val objects, the benchmark's wordings"),
-                       ("val_heldout", "Val objects, held-out wordings (never trained on)")):
+    for key, title in (("val_benchmark", f"Val objects, the benchmark's wordings ({RECOMMENDED_ANSWERS} answers)"),
+                       ("val_heldout", f"Val objects, held-out wordings, never trained on ({RECOMMENDED_ANSWERS} "
+                                       "answers)")):
         table = record.get("results", {}).get(key)
         if not table:
             continue

@@ -26,11 +26,11 @@ from typing import Any
 
 from tacreasoner.tasks.extract import extract_answer, split_reasoning
 from tacreasoner.tasks.scenarios import suitability
-from tacreasoner.tasks.schema import PC_RELATIONS, QAItem
+from tacreasoner.tasks.schema import PC_RELATIONS, PLACEHOLDER, QAItem
 from tacreasoner.tasks.scoring import TSA_LETTERS, _find_phrases, score_item
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
-__all__ = ["REASONED_TASKS", "Consistency", "Levels", "consistency", "implied_answers", "item_levels",
+__all__ = ["REASONED_TASKS", "Consistency", "Levels", "asked", "consistency", "implied_answers", "item_levels",
            "needed_attributes", "option_levels", "parsed_answer", "read_levels", "stated_levels"]
 
 REASONED_TASKS = ("SFD", "PC", "SOI", "OSC", "TSA")
@@ -42,6 +42,32 @@ Levels = dict[str, int]
 _VIDEO = re.compile(r"\bvideo\s+([1-3])\s*:\s*([^.\n]*)", re.IGNORECASE)
 _OBJECT_LETTERS = "ABC"
 _OPTION = re.compile(r"\(([A-C])\)[^:\n(]*:\s*([^.\n]*)")
+
+
+def asked(task: str, question: str, vocabulary: str) -> dict[str, Any] | None:
+    """What a comparison question asks, read from its words alone: ``attribute``, and for SFD and SOI ``direction``
+    (SFD more | less, SOI most | least) and for SFD ``kind`` (which | yesno); None when the words do not say it once.
+
+    SFD and SOI name the property by its comparative or superlative ("softer", "the roughest"), PC by its name ("more,
+    less or similar hardness"); SFD asks "which"/"pick" one, or yes or no. This lets the stepwise answering mode work
+    from the question, never from an item's gold."""
+    text = question.replace(PLACEHOLDER, " ")
+    vocab = get_vocabulary(vocabulary)
+    if task == "PC":
+        found = {a for _, a in _find_phrases(text, {a: a for a in vocab})}
+        return {"attribute": found.pop()} if len(found) == 1 else None
+    if task not in ("SFD", "SOI"):
+        raise ValueError(f"asked() reads SFD, PC and SOI questions, not {task}")
+    words = ("more", "less") if task == "SFD" else ("most", "least")
+    table = {getattr(attr, w): (a, w) for a, attr in vocab.items() for w in words}
+    found_pairs = {pair for _, pair in _find_phrases(text, table)}
+    if len(found_pairs) != 1:
+        return None
+    attribute, direction = found_pairs.pop()
+    out: dict[str, Any] = {"attribute": attribute, "direction": direction}
+    if task == "SFD":
+        out["kind"] = "which" if re.search(r"\b(which|pick)\b", text, re.IGNORECASE) else "yesno"
+    return out
 
 
 def needed_attributes(item: QAItem) -> list[str]:
