@@ -10,9 +10,16 @@ from typing import Any
 
 import pytest
 
-from tacreasoner.evaluate.stepwise import conclude, question_view, read_needs, steps_for
+from tacreasoner.evaluate.stepwise import conclude, question_view, steps_for
 from tacreasoner.tasks.builders import build_items
-from tacreasoner.tasks.conclude import REASONED_TASKS, consistency, item_levels, option_levels, parsed_answer
+from tacreasoner.tasks.conclude import (
+    REASONED_TASKS,
+    consistency,
+    item_levels,
+    option_levels,
+    parsed_answer,
+    read_needs,
+)
 from tacreasoner.tasks.extract import split_reasoning
 from tacreasoner.tasks.schema import QAItem
 from tacreasoner.tasks.vocab import get_vocabulary
@@ -214,3 +221,14 @@ def test_an_unknown_answering_mode_is_refused_by_name(tmp_path: Path) -> None:
         check_answers("chain")
     assert answerer_id(tmp_path, tmp_path).endswith("]; bench=" + str(tmp_path.resolve()))
     assert answerer_id(tmp_path, tmp_path, answers="stepwise").endswith("; answers=stepwise")
+
+
+def test_a_tsa_reply_is_checked_against_the_needs_it_states(items: list[QAItem]) -> None:
+    tsa = next(i for i in items if i.task == "TSA")
+    replies = _gold_replies(tsa)
+    opposite = " and ".join(f"{'low' if level == 'high' else 'high'} {a}" for a, level in tsa.gold["needs"].items())
+    replies[steps_for(_view(tsa), _keys(tsa))[-1].key] = f"<answer>It needs {opposite}.</answer>"
+    composed = conclude(_view(tsa), _keys(tsa), replies)
+    assert composed.guessed == [] and consistency(tsa, composed.reply).consistent  # by the needs it stated
+    assert read_needs(composed.reply, list(tsa.gold["needs"])) == {
+        a: "low" if level == "high" else "high" for a, level in tsa.gold["needs"].items()}

@@ -36,14 +36,22 @@ from typing import Any
 from tacreasoner.cot.compact import conclusion_step, describe
 from tacreasoner.cot.knowledge import QUESTION_GROUP, SCENARIO_QUESTION
 from tacreasoner.tasks.answers import ordinal_answer, osc_answer
-from tacreasoner.tasks.conclude import REASONED_TASKS, Levels, asked, implied_answers, needed_attributes, read_levels
+from tacreasoner.tasks.conclude import (
+    REASONED_TASKS,
+    Levels,
+    asked,
+    implied_answers,
+    needed_attributes,
+    read_levels,
+    read_needs,
+)
 from tacreasoner.tasks.extract import extract_answer
 from tacreasoner.tasks.schema import QAItem
 from tacreasoner.tasks.scoring import TSA_LETTERS
 from tacreasoner.tasks.templating import load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
 
-__all__ = ["STEP_TOKENS", "Step", "Stepwise", "conclude", "question_view", "read_needs", "steps_for"]
+__all__ = ["STEP_TOKENS", "Step", "Stepwise", "conclude", "question_view", "steps_for"]
 
 STEP_TOKENS = 96
 """Reply budget of one sub-question: a reading is a level word (~5 tokens), three named objects' levels ~40, a
@@ -53,7 +61,6 @@ recorded as cut) rather than hold its whole batch to the item's budget."""
 READING_TEMPLATE = "tfa_choices"
 """The single-clip wording each video is read with: it lists the level words, so the reply is one of them."""
 _OPTION = re.compile(r"\(([A-C])\)[^:\n(]*:\s*([^.\n(]*)")
-_NEED = re.compile(r"\b(high|low)\s+([a-z]+)", re.IGNORECASE)
 
 VideoKey = Any
 """A video as the answering code keys it (``train.data.video_key``: path, start, end)."""
@@ -138,16 +145,6 @@ def _said(reply: str) -> str:
     return extract_answer(reply, "lenient") or reply
 
 
-def read_needs(reply: str, attributes: Sequence[str]) -> dict[str, str]:
-    """``… needs high hardness and low roughness.`` → {hardness: high, roughness: low} (known attributes only; the
-    first mention of an attribute wins)."""
-    out: dict[str, str] = {}
-    for level, attribute in _NEED.findall(_said(reply)):
-        if attribute.lower() in attributes and attribute.lower() not in out:
-            out[attribute.lower()] = level.lower()
-    return out
-
-
 def _options_read(reply: str, item: QAItem) -> list[Levels | None]:
     vocab = get_vocabulary(item.vocabulary)
     spans = {m.group(1): m.group(2) for m in reversed(list(_OPTION.finditer(_said(reply))))}
@@ -190,7 +187,7 @@ def conclude(item: QAItem, videos: Sequence[VideoKey], replies: Mapping[str, str
             if read is None:
                 guessed.append(f"({'ABC'[k]})")
             options.append(read or dict.fromkeys(vocab, 1))
-    needs = read_needs(replies[steps[-1].key], list(vocab)) if item.task == "TSA" else None
+    needs = read_needs(_said(replies[steps[-1].key]), list(vocab)) if item.task == "TSA" else None
     if needs == {}:
         guessed.append("needs")
         implied: set[Any] = set(TSA_LETTERS[: len(videos)])

@@ -31,7 +31,7 @@ from tacreasoner.tasks.scoring import TSA_LETTERS, _find_phrases, score_item
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
 __all__ = ["REASONED_TASKS", "Consistency", "Levels", "asked", "consistency", "implied_answers", "item_levels",
-           "needed_attributes", "option_levels", "parsed_answer", "read_levels", "stated_levels"]
+           "needed_attributes", "option_levels", "parsed_answer", "read_levels", "read_needs", "stated_levels"]
 
 REASONED_TASKS = ("SFD", "PC", "SOI", "OSC", "TSA")
 """Tasks over several objects whose answer follows from per-object levels."""
@@ -42,6 +42,7 @@ Levels = dict[str, int]
 _VIDEO = re.compile(r"\bvideo\s+([1-3])\s*:\s*([^.\n]*)", re.IGNORECASE)
 _OBJECT_LETTERS = "ABC"
 _OPTION = re.compile(r"\(([A-C])\)[^:\n(]*:\s*([^.\n]*)")
+_NEED = re.compile(r"\b(high|low)\s+([a-z]+)", re.IGNORECASE)
 
 
 def asked(task: str, question: str, vocabulary: str) -> dict[str, Any] | None:
@@ -118,11 +119,23 @@ def read_levels(text: str, attributes: Sequence[str], vocab: Mapping[str, Attrib
     return out
 
 
-def stated_levels(item: QAItem, reasoning: str) -> tuple[list[Levels], list[Levels]] | None:
+def read_needs(text: str, attributes: Sequence[str]) -> dict[str, str]:
+    """``… needs high hardness and low roughness.`` → {hardness: high, roughness: low}: what a text says a scenario
+    needs (known ``attributes`` only; the first mention of an attribute wins)."""
+    out: dict[str, str] = {}
+    for level, attribute in _NEED.findall(text):
+        if attribute.lower() in attributes and attribute.lower() not in out:
+            out[attribute.lower()] = level.lower()
+    return out
+
+
+def stated_levels(item: QAItem, reasoning: str, needs: Mapping[str, str] | None = None,
+                  ) -> tuple[list[Levels], list[Levels]] | None:
     """(per video, per option) levels a reply's reasoning states (``Video 1: hard, rough.`` …; OSC also
-    ``(A) a lemon: moderately hard, …``); None when any video's (or option's) needed levels are not stated once."""
+    ``(A) a lemon: moderately hard, …``); None when any video's (or option's) needed levels are not stated once.
+    TSA: the levels of what ``needs`` names (default the scenario's true needs)."""
     vocab = get_vocabulary(item.vocabulary)
-    needed = needed_attributes(item)
+    needed = [a for a in vocab if a in needs] if item.task == "TSA" and needs else needed_attributes(item)
 
     def read(pattern: re.Pattern[str], keys: Sequence[str]) -> list[Levels] | None:
         spans = {m.group(1).upper(): m.group(2) for m in reversed(list(pattern.finditer(reasoning)))}
@@ -202,12 +215,14 @@ class Consistency:
 
 
 def consistency(item: QAItem, reply: str) -> Consistency:
-    """Read the levels ``reply`` states for ``item`` and check its answer against what they imply."""
+    """Read the levels ``reply`` states for ``item`` and check its answer against what they imply. TSA: weighed by the
+    needs the reply says the scenario has (``… needs high hardness …``), else by its true needs."""
     reasoning, _ = split_reasoning(reply)
-    stated = stated_levels(item, reasoning) if reasoning else None
+    needs = read_needs(reasoning, list(get_vocabulary(item.vocabulary))) if reasoning and item.task == "TSA" else {}
+    stated = stated_levels(item, reasoning, needs) if reasoning else None
     if stated is None:
         return Consistency("no levels")
-    implied = implied_answers(item, *stated)
+    implied = implied_answers(item, *stated, needs=needs or None)
     parsed = parsed_answer(item, reply)
     if parsed is None:
         return Consistency("no answer", tuple(sorted(implied, key=str)))
