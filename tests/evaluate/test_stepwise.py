@@ -232,3 +232,20 @@ def test_a_tsa_reply_is_checked_against_the_needs_it_states(items: list[QAItem])
     assert composed.guessed == [] and consistency(tsa, composed.reply).consistent  # by the needs it stated
     assert read_needs(composed.reply, list(tsa.gold["needs"])) == {
         a: "low" if level == "high" else "high" for a, level in tsa.gold["needs"].items()}
+
+
+@pytest.mark.parametrize("vocabulary", ["physiclear", "vtv150k"])
+def test_a_persons_question_is_read_as_the_benchmark_item_it_words(vocabulary: str) -> None:
+    from tacreasoner.evaluate.stepwise import free_question_view
+    from tacreasoner.tasks.paraphrase import reword_items
+
+    tasks = ["SFD", "PC", "SOI", "OSC", "TSA"] if vocabulary == "physiclear" else ["SFD", "SOI", "OSC", "TSA"]
+    built = build_items(make_clips(n_objects=30, repeats=2), tasks=tasks, vocabulary=vocabulary, split="val", seed=0)
+    for item in built + reword_items(built, "heldout"):
+        view, free = _view(item), free_question_view(item.question, len(item.videos), vocabulary)
+        assert free is not None, item.question
+        assert (free.task, free.gold, free.options) == (view.task, view.gold, view.options), item.question
+        assert free.meta.get("scenario_text") == view.meta.get("scenario_text")
+    assert free_question_view("Is <tactile> soft?", 1, vocabulary) is None  # one clip: one pass
+    assert free_question_view("What do <tactile> and <tactile> have in common?", 2, vocabulary) is None
+    assert free_question_view("Which is harder, <tactile> or <tactile>?", 3, vocabulary) is None  # videos ≠ slots

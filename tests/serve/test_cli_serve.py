@@ -131,3 +131,23 @@ def test_the_serve_extra_brings_the_openai_client_the_docs_use() -> None:
     pyproject = tomllib.loads((Path(__file__).resolve().parents[2] / "pyproject.toml").read_text())
     extras = pyproject["project"]["optional-dependencies"]
     assert "openai>=1.40" in extras["serve"] and "openai>=1.40" in extras["api"]
+
+
+def test_ask_stepwise_reads_each_video_and_shows_the_readings(served_model: Path, clip_files: list[Path]) -> None:
+    question = "Which of these feels harder: <tactile> or <tactile>?"
+    base = ["ask", question, "--video", str(clip_files[0]), "--video", str(clip_files[1]), "--model",
+            str(served_model), "--answers", "stepwise"]
+    result = CliRunner().invoke(app, [*base, "--json"])
+    assert result.exit_code == 0, result.output
+    out = json.loads(result.stdout)
+    assert out["answers"] == "stepwise" and out["think"].startswith("Video 1: ") and "Video 2: " in out["think"]
+    assert out["answer"] in ("the first object", "the second object")  # the rule's answer, whatever was read
+    assert out["timings"]["steps"] == 2  # one pass per video
+    streamed = CliRunner().invoke(app, base)
+    assert streamed.exit_code == 0 and "think: Video 1: " in streamed.output and "stepwise: 2 passes" in streamed.output
+    # a question it does not read is answered in one pass, and said so
+    other = CliRunner().invoke(app, ["ask", ONE, "--video", str(clip_files[0]), "--model", str(served_model),
+                                     "--answers", "stepwise"])
+    assert other.exit_code == 0 and "answered in one pass" in other.output
+    bad = CliRunner().invoke(app, [*base, "--vocabulary", "octopi"])
+    assert bad.exit_code == 2 and "unknown vocabulary 'octopi'" in bad.output

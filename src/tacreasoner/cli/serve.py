@@ -56,13 +56,24 @@ def ask(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object (think, answer, timings) "
                                                          "instead of streaming.")] = False,
     dtype: Dtype = "float32",
+    answers: Annotated[str, typer.Option(
+        "--answers", help="direct: one pass; stepwise: a question comparing objects (which is softer, more/less/"
+                          "similar, the roughest of three, which named object is which, which suits a scenario) is "
+                          "answered by reading each video in a pass of its own and concluding by rule, the readings "
+                          "shown (other questions: one pass).")] = "direct",
+    vocabulary: Annotated[str, typer.Option(
+        "--vocabulary", help="With --answers stepwise: the level words the model was trained on (physiclear: soft / "
+                             "moderately hard / hard …; vtv150k: DynTAC-Sim's).")] = "physiclear",
 ) -> None:
     """Ask a trained model about tactile videos; streams its reasoning as it is generated, then the answer."""
     needs_train_extra("ask")
-    from tacreasoner.evaluate.predict import check_dtype
+    from tacreasoner.evaluate.predict import check_answers, check_dtype
     from tacreasoner.serve import Delta, Prompt, Reply, RequestError, Sampling
+    from tacreasoner.tasks.vocab import get_vocabulary
 
     check_dtype(dtype)
+    check_answers(answers)
+    get_vocabulary(vocabulary)
     for path in video:
         if not path.is_file():
             raise FileNotFoundError(f"--video {path}: no such file")
@@ -74,6 +85,22 @@ def ask(
         raise ValueError(str(exc).replace(exc.param or "", option, 1)) from None
     engine = _load_engine(model, dtype=dtype)
     prompt = Prompt.ask(question, [str(p) for p in video])
+    if answers == "stepwise":
+        from tacreasoner.serve.stepwise import answer_stepwise
+
+        stepped = answer_stepwise(engine, question, [str(p) for p in video], vocabulary)
+        if stepped is not None:
+            if as_json:
+                typer.echo(json.dumps({"model": str(model), "videos": [str(v) for v in video], "answers": "stepwise",
+                                       **stepped.to_dict()}))
+                return
+            for label, text in (("think:", stepped.reasoning), ("answer:", stepped.content)):
+                console.print(f"[bold]{label}[/bold] ", end="")
+                console.print(text, markup=False, highlight=False)
+            console.print(f"[dim]stepwise: {int(stepped.timings['steps'])} passes, {stepped.completion_tokens} "
+                          f"tokens in {stepped.timings['total_s']:.2f} s[/dim]")
+            return
+        console.print("[dim]stepwise: not a comparison it reads (see --answers); answered in one pass[/dim]")
     if as_json:
         reply = engine.complete(prompt, sampling)
         typer.echo(json.dumps({"model": str(model), "videos": [str(v) for v in video], **reply.to_dict()}))

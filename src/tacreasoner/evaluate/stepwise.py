@@ -27,6 +27,7 @@ option list, or scenario), so items sharing a clip share its reading.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import random
 import re
 from collections.abc import Mapping, Sequence
@@ -51,7 +52,7 @@ from tacreasoner.tasks.scoring import TSA_LETTERS
 from tacreasoner.tasks.templating import load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
 
-__all__ = ["STEP_TOKENS", "Step", "Stepwise", "conclude", "question_view", "steps_for"]
+__all__ = ["STEP_TOKENS", "Step", "Stepwise", "conclude", "free_question_view", "question_view", "steps_for"]
 
 STEP_TOKENS = 96
 """Reply budget of one sub-question: a reading is a level word (~5 tokens), three named objects' levels ~40, a
@@ -102,6 +103,43 @@ def question_view(item: QAItem) -> QAItem | None:
     if item.task == "TSA" and "scenario_text" not in meta:
         return None
     return dataclasses.replace(item, answer="?", gold=gold, meta=meta, objects=[])
+
+
+_OPTIONS = re.compile(r"\(([A-C])\)\s*(.+?)(?=\s*\([A-C]\)|[.?](?:\s|$)|\n|$)")
+_ORDINAL_OPTION = re.compile(r"^the (first|second|third) (object|one)$", re.IGNORECASE)
+_SCENARIO = re.compile(r"(?:suited for|an object for|imagine)\s+(.+?)\s*[.?](?:\s|$)", re.IGNORECASE)
+
+
+def free_question_view(question: str, videos: int, vocabulary: str) -> QAItem | None:
+    """A person's question over ``videos`` tactile videos as the stepwise mode's view, read from its words alone:
+    a scenario with options "(A) the first object (B) the second object" (TSA), named options, one per video (OSC),
+    "more, less or similar" over two videos (PC), a comparative over two (SFD) or a superlative over three (SOI).
+    None when it is none of these (it is then answered in one pass)."""
+    from tacreasoner.tasks.schema import PLACEHOLDER, VideoRef
+
+    if question.count(PLACEHOLDER) != videos or videos < 2:
+        return None
+    options = [o.strip().rstrip(".?") for _, o in _OPTIONS.findall(question)]
+    meta: dict[str, Any] = {}
+    task, gold = None, None
+    if options and all(_ORDINAL_OPTION.match(o) for o in options):
+        found = _SCENARIO.search(question.replace(PLACEHOLDER, " "))
+        if found and len(options) == videos == 2:
+            task, gold, meta = "TSA", {}, {"scenario_text": found.group(1).strip()}
+    elif options:
+        if len(options) == videos:
+            task, gold = "OSC", {}
+    elif videos == 2 and re.search(r"\bsimilar\b", question, re.IGNORECASE):
+        task, gold = "PC", asked("PC", question, vocabulary)
+    elif videos in (2, 3):
+        task = "SFD" if videos == 2 else "SOI"
+        gold = asked(task, question, vocabulary)
+    if task is None or gold is None:
+        return None
+    digest = hashlib.sha1(f"{videos}|{question}".encode()).hexdigest()[:12]  # the tie draw is the same every run
+    return QAItem(id=f"asked-{digest}", task=task, question=question, answer="?",
+                  gold=gold, videos=[VideoRef(clip_id=f"video{k}") for k in range(videos)], objects=[],
+                  vocabulary=vocabulary, options=options if task in ("OSC", "TSA") else [], meta=meta)
 
 
 def _attributes(item: QAItem) -> list[str]:
