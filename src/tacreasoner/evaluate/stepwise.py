@@ -243,6 +243,8 @@ def conclude(item: QAItem, videos: Sequence[VideoKey], replies: Mapping[str, str
     if needs == {}:
         lines.append(f"What the scenario needs is unclear; a guess: Video {TSA_LETTERS.index(answer) + 1}.")
     else:
+        if len(implied) > 1:  # say that the readings leave it open rather than pretend they decide it
+            lines.append("The readings tie; one answer is drawn.")
         lines.append(conclusion_step(item, answer, vocab, needs))
     return Stepwise(f"<think>{' '.join(lines)}</think><answer>{_answer_text(item, answer)}</answer>",
                     [s.key for s in steps], guessed)
