@@ -15,23 +15,8 @@ import statistics
 import sys
 from pathlib import Path
 
-from tacreasoner.evaluate.report import load_scored
-
-READING = {"hardness": "TFA-hardness", "roughness": "TFA-roughness", "bumpiness": "TFA-bumpiness",
-           "combined": "TFA-combined"}
-REASONING = {"PC": "PC", "PSS": "SOI", "POM": "OSC", "PSR": "TSA"}
-
-
-def per_seed(folder: Path) -> list[dict[str, float]]:
-    out = []
-    for path in sorted((folder / "scored").glob("*.jsonl")):
-        records = load_scored(path)
-        acc = {}
-        for column, task in {**READING, **REASONING}.items():
-            mine = [r for r in records if r["task"] == task]
-            acc[column] = sum(bool(r["correct"]) for r in mine) / len(mine)
-        out.append(acc)
-    return out
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "2026-11-28_compact_reasoning"))
+from decide import READING, REASONING, per_seed  # the same per-seed columns as the compact experiment's rule
 
 
 def mean(acc: dict[str, float], columns: dict[str, str]) -> float:
