@@ -47,7 +47,7 @@ from tacreasoner.tasks.conclude import (
     read_needs,
 )
 from tacreasoner.tasks.extract import extract_answer
-from tacreasoner.tasks.schema import QAItem
+from tacreasoner.tasks.schema import PLACEHOLDER, QAItem, VideoRef
 from tacreasoner.tasks.scoring import TSA_LETTERS
 from tacreasoner.tasks.templating import load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
@@ -115,8 +115,6 @@ def free_question_view(question: str, videos: int, vocabulary: str) -> QAItem | 
     a scenario with options "(A) the first object (B) the second object" (TSA), named options, one per video (OSC),
     "more, less or similar" over two videos (PC), a comparative over two (SFD) or a superlative over three (SOI).
     None when it is none of these (it is then answered in one pass)."""
-    from tacreasoner.tasks.schema import PLACEHOLDER, VideoRef
-
     if question.count(PLACEHOLDER) != videos or videos < 2:
         return None
     options = [o.strip().rstrip(".?") for _, o in _OPTIONS.findall(question)]
