@@ -249,3 +249,28 @@ def test_a_persons_question_is_read_as_the_benchmark_item_it_words(vocabulary: s
     assert free_question_view("Is <tactile> soft?", 1, vocabulary) is None  # one clip: one pass
     assert free_question_view("What do <tactile> and <tactile> have in common?", 2, vocabulary) is None
     assert free_question_view("Which is harder, <tactile> or <tactile>?", 3, vocabulary) is None  # videos ≠ slots
+
+
+def test_the_vote_takes_the_majority_and_breaks_ties_by_the_first_wording_then_the_middle() -> None:
+    from tacreasoner.evaluate.stepwise import _vote
+
+    assert _vote([0, 2, 2, 1]) == 2
+    assert _vote([0, 2, 2, 0]) == 0  # a tie that holds the first wording's reading
+    assert _vote([None, 2, 1, 0]) == 1  # a three-way tie, the first wording unread: the middle
+    assert _vote([None, 2, 0, None]) == 0  # 0 and 2 equally near the middle: the lower
+    assert _vote([1, None, None, None]) == 1 and _vote([None] * 4) is None
+
+
+def test_stepwise_vote_reads_each_clip_in_every_wording(answered: dict[str, Any]) -> None:
+    from tacreasoner.evaluate.predict import predict_items, steps_path
+    from tacreasoner.evaluate.stepwise import VOTE_TEMPLATES
+
+    out = answered["out"].with_name("vote.jsonl")
+    predict_items(answered["model"], answered["processor"], answered["items"], answered["root"], out,
+                  max_new_tokens=8, answers="stepwise-vote", answered_by="me, voting")
+    steps = [json.loads(line)["key"] for line in steps_path(out).read_text().splitlines()]
+    single = [json.loads(line)["key"] for line in steps_path(answered["out"]).read_text().splitlines()]
+    readings = [k for k in single if k.startswith("read|")]
+    assert len([k for k in steps if k.startswith("read")]) == len(VOTE_TEMPLATES) * len(readings)
+    lines = [json.loads(line) for line in out.read_text().splitlines()]
+    assert {r["answers"] for r in lines if "answers" in r} == {"stepwise-vote"}

@@ -83,7 +83,8 @@ def retrieval_bench_cmd(
 Answers = Annotated[str, typer.Option(
     "--answers", help="direct: every question in one pass; stepwise: a question over several objects is answered by "
                       "reading each video (and each named object, each scenario's needs) in a pass of its own and "
-                      "concluding by the rule (evaluate/stepwise.py); its reply shows the readings.")]
+                      "concluding by the rule (evaluate/stepwise.py); its reply shows the readings; stepwise-vote: "
+                      "each video read in every single-clip wording, the majority level.")]
 
 
 @app.command("evaluate")

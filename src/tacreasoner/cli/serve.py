@@ -72,7 +72,8 @@ def ask(
     from tacreasoner.tasks.vocab import get_vocabulary
 
     check_dtype(dtype)
-    check_answers(answers)
+    if check_answers(answers) == "stepwise-vote":
+        raise ValueError("--answers: ask answers direct or stepwise (stepwise-vote scores a benchmark)")
     get_vocabulary(vocabulary)
     for path in video:
         if not path.is_file():

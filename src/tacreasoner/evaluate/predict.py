@@ -28,9 +28,10 @@ __all__ = ["ANSWER_DTYPES", "ANSWER_MODES", "TOUCH_MODES", "answer_with_model", 
            "check_answers", "check_dtype", "check_touch", "load_trained", "predict_items", "predict_split",
            "predictions_path", "resolve_dtype", "set_aside_stale", "shuffle_videos", "steps_path"]
 
-ANSWER_MODES = ("direct", "stepwise")
+ANSWER_MODES = ("direct", "stepwise", "stepwise-vote")
 """How questions over several objects are answered: one pass (``direct``), or one pass per video and named object
-and the conclusion by the rule (``stepwise``: :mod:`tacreasoner.evaluate.stepwise`)."""
+and the conclusion by the rule (``stepwise``: :mod:`tacreasoner.evaluate.stepwise`); ``stepwise-vote`` reads each
+video in every single-clip wording and takes the majority level."""
 TOUCH_MODES = ("real", "blank", "shuffled")
 """What the model gets as touch: the item's own videos, a featureless clip, or other items' videos."""
 
@@ -315,7 +316,7 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
 
     if progress is not None:
         progress(len(items) - len(todo), len(items))
-    views = _question_views(todo) if answers == "stepwise" else {}
+    views = _question_views(todo) if answers != "direct" else {}
     stepwise = [item for item in todo if item.id in views]
     direct = [item for item in todo if item.id not in views]
     # similar lengths together: less padding in each generate call
@@ -335,7 +336,7 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
             if progress is not None:
                 progress(done_count, len(items))
         if stepwise:
-            _answer_stepwise([views[item.id] for item in stepwise], keys, out, replies, tag, f, root, touch,
+            _answer_stepwise([views[item.id] for item in stepwise], keys, out, replies, tag, f, root, touch, answers,
                              lambda n: progress(done_count + n, len(items)) if progress is not None else None)
     return out
 
@@ -385,13 +386,14 @@ def steps_path(out_path: str | os.PathLike[str]) -> Path:
 
 def _answer_stepwise(items: Sequence[QAItem], keys: Mapping[str, Sequence[VideoKey]], out: Path,
                      replies: Callable[..., Iterator[list[tuple[str, bool]]]],
-                     tag: Mapping[str, Any], f: Any, root: Path, touch: str,
+                     tag: Mapping[str, Any], f: Any, root: Path, touch: str, answers: str,
                      progress: Callable[[int], None]) -> None:
     """Answer ``items`` in the stepwise mode (:mod:`tacreasoner.evaluate.stepwise`): their sub-questions (each asked
     once, kept in :func:`steps_path` so a resumed run asks none twice), then each item's reply composed and written
     to ``f``."""
-    from tacreasoner.evaluate.stepwise import STEP_TOKENS, conclude, steps_for
+    from tacreasoner.evaluate.stepwise import READING_TEMPLATE, STEP_TOKENS, VOTE_TEMPLATES, conclude, steps_for
 
+    templates = VOTE_TEMPLATES if answers == "stepwise-vote" else (READING_TEMPLATE,)
     path = steps_path(out)
     said: dict[str, str] = {}
     if path.is_file():
@@ -406,7 +408,7 @@ def _answer_stepwise(items: Sequence[QAItem], keys: Mapping[str, Sequence[VideoK
                     raise ValueError(f"{path}:{number}: sub-questions answered by {record.get('answered_by')}, this "
                                      f"run is {tag.get('answered_by')}; write to another --out rather than mix them")
                 said[key] = reply
-    steps = {s.key: s for item in items for s in steps_for(item, keys[item.id])}
+    steps = {s.key: s for item in items for s in steps_for(item, keys[item.id], templates)}
     todo = sorted((s for s in steps.values() if s.key not in said), key=lambda s: (len(s.videos), len(s.question)))
     with path.open("a", encoding="utf-8") as g:
         start = 0
@@ -419,9 +421,9 @@ def _answer_stepwise(items: Sequence[QAItem], keys: Mapping[str, Sequence[VideoK
             start += len(answered)
             progress(len(items) * start // len(todo) - (start == len(todo)))  # the items follow once all are asked
     for item in items:
-        composed = conclude(item, keys[item.id], said)
+        composed = conclude(item, keys[item.id], said, templates)
         record = {"id": item.id, "prediction": composed.reply, "task": item.task, "cut": False, **tag,
-                  "answers": "stepwise", "steps": composed.steps, "guessed": composed.guessed}
+                  "answers": answers, "steps": composed.steps, "guessed": composed.guessed}
         if touch == "shuffled":
             record["touch_videos"] = [_key_name(k, root) for k in keys[item.id]]
         f.write(json.dumps(record) + "\n")

@@ -52,7 +52,8 @@ from tacreasoner.tasks.scoring import TSA_LETTERS
 from tacreasoner.tasks.templating import load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
 
-__all__ = ["STEP_TOKENS", "Step", "Stepwise", "conclude", "free_question_view", "question_view", "steps_for"]
+__all__ = ["STEP_TOKENS", "VOTE_TEMPLATES", "Step", "Stepwise", "conclude", "free_question_view", "question_view",
+           "steps_for"]
 
 STEP_TOKENS = 96
 """Reply budget of one sub-question: a reading is a level word (~5 tokens), three named objects' levels ~40, a
@@ -61,6 +62,8 @@ recorded as cut) rather than hold its whole batch to the item's budget."""
 
 READING_TEMPLATE = "tfa_choices"
 """The single-clip wording each video is read with: it lists the level words, so the reply is one of them."""
+VOTE_TEMPLATES = ("tfa_choices", "tfa_level", "tfa_describe", "tfa_feel")
+"""``stepwise-vote``: every single-clip wording of ``tasks/templates/tfa.yaml``, the level taken by majority."""
 _OPTION = re.compile(r"\(([A-C])\)[^:\n(]*:\s*([^.\n(]*)")
 
 VideoKey = Any
@@ -146,12 +149,13 @@ def _attributes(item: QAItem) -> list[str]:
     return list(get_vocabulary(item.vocabulary)) if item.task == "TSA" else needed_attributes(item)
 
 
-def _reading_key(attribute: str, key: VideoKey) -> str:
-    return f"read|{attribute}|{key[0]}|{key[1]}|{key[2]}"
+def _reading_key(attribute: str, key: VideoKey, template: str = READING_TEMPLATE) -> str:
+    kind = "read" if template == READING_TEMPLATE else f"read:{template}"
+    return f"{kind}|{attribute}|{key[0]}|{key[1]}|{key[2]}"
 
 
-def _reading_question(item: QAItem, attribute: str) -> str:
-    template = next(t for t in load_templates()["tfa"] if t.id == READING_TEMPLATE)
+def _reading_question(item: QAItem, attribute: str, template_id: str = READING_TEMPLATE) -> str:
+    template = next(t for t in load_templates()["tfa"] if t.id == template_id)
     quoted = [f'"{phrase}"' for phrase in get_vocabulary(item.vocabulary)[attribute].levels]
     return template.render(attribute=attribute, choices=f"{', '.join(quoted[:-1])} or {quoted[-1]}")
 
@@ -160,13 +164,13 @@ def _options_text(item: QAItem) -> str:
     return " ".join(f"({'ABC'[k]}) {name}" for k, name in enumerate(item.options))
 
 
-def steps_for(item: QAItem, videos: Sequence[VideoKey]) -> list[Step]:
+def steps_for(item: QAItem, videos: Sequence[VideoKey], templates: Sequence[str] = (READING_TEMPLATE,)) -> list[Step]:
     """The sub-questions of one multi-object item (a :func:`question_view`) whose videos are ``videos`` (its own, or
-    under the removed-touch control the ones it is shown instead)."""
+    under the removed-touch control the ones it is shown instead), each video read in each of ``templates``."""
     if item.task not in REASONED_TASKS:
         raise ValueError(f"item {item.id!r}: task {item.task} is answered in one pass, not stepwise")
-    steps = [Step(_reading_key(a, key), _reading_question(item, a), (key,))
-             for key in videos for a in _attributes(item)]
+    steps = [Step(_reading_key(a, key, t), _reading_question(item, a, t), (key,))
+             for key in videos for a in _attributes(item) for t in templates]
     if item.task == "OSC":
         steps.append(Step(f"objects|{item.vocabulary}|{_options_text(item)}",
                           QUESTION_GROUP.format(options=_options_text(item))))
@@ -203,19 +207,34 @@ def _answer_text(item: QAItem, answer: Any) -> str:
     return ordinal_answer(int(answer))
 
 
-def conclude(item: QAItem, videos: Sequence[VideoKey], replies: Mapping[str, str]) -> Stepwise:
-    """The reply to ``item`` (a :func:`question_view`) composed from its sub-questions' ``replies`` (key → reply)."""
+def _vote(ranks: Sequence[int | None]) -> int | None:
+    """The majority of the read ranks (None: unread); a tie goes to the first wording's rank when it is among the
+    tied, else to the rank nearest the middle."""
+    read = [r for r in ranks if r is not None]
+    if not read:
+        return None
+    top = max(read.count(r) for r in set(read))
+    tied = sorted({r for r in read if read.count(r) == top})
+    return ranks[0] if ranks[0] in tied else min(tied, key=lambda r: abs(r - 1))
+
+
+def conclude(item: QAItem, videos: Sequence[VideoKey], replies: Mapping[str, str],
+             templates: Sequence[str] = (READING_TEMPLATE,)) -> Stepwise:
+    """The reply to ``item`` (a :func:`question_view`) composed from its sub-questions' ``replies`` (key → reply);
+    each video's level is the majority over ``templates``' readings (:func:`_vote`)."""
     vocab = get_vocabulary(item.vocabulary)
-    steps = steps_for(item, videos)
+    steps = steps_for(item, videos, templates)
     guessed: list[str] = []
     levels: list[Levels] = []
     for v, key in enumerate(videos):
         mine: Levels = {}
         for attribute in _attributes(item):
-            read = read_levels(_said(replies[_reading_key(attribute, key)]), [attribute], vocab)
-            if read is None:
+            reads = [read_levels(_said(replies[_reading_key(attribute, key, t)]), [attribute], vocab)
+                     for t in templates]
+            rank = _vote([None if r is None else r[attribute] for r in reads])
+            if rank is None:
                 guessed.append(f"Video {v + 1} {attribute}")
-            mine.update(read or {attribute: 1})
+            mine[attribute] = 1 if rank is None else rank
         levels.append(mine)
     options: list[Levels] = []
     if item.task == "OSC":
