@@ -45,8 +45,8 @@ def test_the_recipe_runs_end_to_end_and_resumes(physiclear_folder: Path, make_ph
     record = run_recipe(physiclear_folder, tmp_path / "run", llm=llm, overrides=overrides,
                         encoder={"size": "48x64", "frames": 4}, say=said.append)
     assert set(record["seconds"]) == {"encoder", "bench", "seed0.stage1", "seed0.stage2",
-                                      "evaluate val (benchmark wordings, stepwise answers)",
-                                      "evaluate val (heldout wordings, stepwise answers)"}
+                                      "evaluate val (benchmark wordings, stepwise-vote answers)",
+                                      "evaluate val (heldout wordings, stepwise-vote answers)"}
     model = tmp_path / "run" / "train" / "seed0" / "stage2" / "model"
     assert (model / "config.json").is_file()
     assert json.loads((model / "config.json").read_text())["encoder"]["backbone"] == "efficientnet_lite0"
@@ -55,9 +55,9 @@ def test_the_recipe_runs_end_to_end_and_resumes(physiclear_folder: Path, make_ph
     heldout = record["results"]["val_heldout"]
     assert heldout["hardness"]["n"] == 8 and heldout["PSR"] is None  # TSA has no held-out wording
     report = (tmp_path / "run" / "report.md").read_text()
-    assert "held-out wordings" in report and "replies in the asked form" in report and "stepwise answers" in report
-    scored = json.loads((tmp_path / "run" / "eval" / "val_stepwise" / "octopi.json").read_text())
-    assert scored["answers"] == "stepwise"  # questions over several objects answered the recommended way
+    assert "held-out wordings" in report and "replies in the asked form" in report and "stepwise-vote answers" in report
+    scored = json.loads((tmp_path / "run" / "eval" / "val_stepwise-vote" / "octopi.json").read_text())
+    assert scored["answers"] == "stepwise-vote"  # questions over several objects answered the recommended way
     # again: nothing is redone
     said.clear()
     again = run_recipe(physiclear_folder, tmp_path / "run", llm=llm, overrides=overrides,
@@ -75,7 +75,7 @@ def test_the_recipe_runs_end_to_end_and_resumes(physiclear_folder: Path, make_ph
     assert result.exit_code == 0, result.output
     octopi = (tmp_path / "scored" / "octopi.md").read_text()
     assert "hardness" in octopi.lower() and "test" in (tmp_path / "scored" / "report.md").read_text()
-    assert json.loads((tmp_path / "scored" / "octopi.json").read_text())["answers"] == "stepwise"
+    assert json.loads((tmp_path / "scored" / "octopi.json").read_text())["answers"] == "stepwise-vote"
 
 
 def test_a_folder_without_train_objects_is_refused(make_physiclear_folder, tmp_path: Path) -> None:

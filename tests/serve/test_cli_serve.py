@@ -149,5 +149,7 @@ def test_ask_stepwise_reads_each_video_and_shows_the_readings(served_model: Path
     other = CliRunner().invoke(app, ["ask", ONE, "--video", str(clip_files[0]), "--model", str(served_model),
                                      "--answers", "stepwise"])
     assert other.exit_code == 0 and "answered in one pass" in other.output
+    voted = CliRunner().invoke(app, [*base[:-1], "stepwise-vote", "--json"])
+    assert voted.exit_code == 0 and json.loads(voted.stdout)["timings"]["steps"] == 8  # 2 videos x 4 wordings
     bad = CliRunner().invoke(app, [*base, "--vocabulary", "octopi"])
     assert bad.exit_code == 2 and "unknown vocabulary 'octopi'" in bad.output

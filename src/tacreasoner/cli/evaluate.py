@@ -161,10 +161,11 @@ def evaluate_physiclear_cmd(
         "--wording", help="benchmark: the benchmark's question templates; heldout: the same items asked in wordings "
                           "no training used (tasks/paraphrases/heldout.yaml; tasks without one are left out).")
                        ] = "benchmark",
-    answers: Answers = "stepwise",
+    answers: Answers = "stepwise-vote",
 ) -> None:
     """Score saved models on a PhysiCLeAR-shaped folder: its items built deterministically, Octopi's table out.
-    Questions over several objects are answered stepwise by default (the recommended mode, chosen on val)."""
+    Questions over several objects are answered stepwise, each clip read in every wording, by default (the
+    recommended mode, chosen on val)."""
     needs_train_extra("evaluate-physiclear")
     at_least_one("--batch-size", batch_size)
     if per_task is not None:

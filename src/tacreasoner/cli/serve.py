@@ -60,10 +60,11 @@ def ask(
         "--answers", help="direct: one pass; stepwise: a question comparing objects (which is softer, more/less/"
                           "similar, the roughest of three, which named object is which, which suits a scenario) is "
                           "answered by reading each video in a pass of its own and concluding by rule, the readings "
-                          "shown (other questions: one pass).")] = "direct",
+                          "shown (other questions: one pass); stepwise-vote: each video read in every single-clip "
+                          "wording, the majority level (how evaluate-physiclear answers).")] = "direct",
     vocabulary: Annotated[str, typer.Option(
-        "--vocabulary", help="With --answers stepwise: the level words the model was trained on (physiclear: soft / "
-                             "moderately hard / hard …; vtv150k: DynTAC-Sim's).")] = "physiclear",
+        "--vocabulary", help="With --answers stepwise[-vote]: the level words the model was trained on (physiclear: "
+                             "soft / moderately hard / hard …; vtv150k: DynTAC-Sim's).")] = "physiclear",
 ) -> None:
     """Ask a trained model about tactile videos; streams its reasoning as it is generated, then the answer."""
     needs_train_extra("ask")
@@ -72,8 +73,7 @@ def ask(
     from tacreasoner.tasks.vocab import get_vocabulary
 
     check_dtype(dtype)
-    if check_answers(answers) == "stepwise-vote":
-        raise ValueError("--answers: ask answers direct or stepwise (stepwise-vote scores a benchmark)")
+    check_answers(answers)
     get_vocabulary(vocabulary)
     for path in video:
         if not path.is_file():
@@ -86,13 +86,15 @@ def ask(
         raise ValueError(str(exc).replace(exc.param or "", option, 1)) from None
     engine = _load_engine(model, dtype=dtype)
     prompt = Prompt.ask(question, [str(p) for p in video])
-    if answers == "stepwise":
+    if answers != "direct":
+        from tacreasoner.evaluate.stepwise import READING_TEMPLATE, VOTE_TEMPLATES
         from tacreasoner.serve.stepwise import answer_stepwise
 
-        stepped = answer_stepwise(engine, question, [str(p) for p in video], vocabulary)
+        templates = VOTE_TEMPLATES if answers == "stepwise-vote" else (READING_TEMPLATE,)
+        stepped = answer_stepwise(engine, question, [str(p) for p in video], vocabulary, templates=templates)
         if stepped is not None:
             if as_json:
-                typer.echo(json.dumps({"model": str(model), "videos": [str(v) for v in video], "answers": "stepwise",
+                typer.echo(json.dumps({"model": str(model), "videos": [str(v) for v in video], "answers": answers,
                                        **stepped.to_dict()}))
                 return
             for label, text in (("think:", stepped.reasoning), ("answer:", stepped.content)):

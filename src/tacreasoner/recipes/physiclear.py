@@ -10,8 +10,9 @@ interrupted run resumes):
 4. per seed, Stage I and Stage II of the shipped config (``physiclear-smollm2-cpu.yaml``: the paper's core model,
    no read-out heads);
 5. the folder's val objects (when it has them) answered by every seed's model, in the benchmark's wordings and in
-   held-out wordings no training used (``evaluate-physiclear``), questions over several objects answered stepwise
-   (``evaluate.physiclear.RECOMMENDED_ANSWERS``; into ``DIR/eval/val_stepwise`` and ``val_heldout_stepwise``).
+   held-out wordings no training used (``evaluate-physiclear``), questions over several objects answered the
+   recommended way (``evaluate.physiclear.RECOMMENDED_ANSWERS``, stepwise-vote; into ``DIR/eval/val_stepwise-vote``
+   and ``val_heldout_stepwise-vote``).
 
 It writes ``DIR/recipe.json`` (what ran, how long, the scores) and ``DIR/report.md``. The held-out test objects are
 scored afterwards with ``evaluate-physiclear --model DIR/train/seed0/stage2/model --data TEST_FOLDER``.

@@ -12,7 +12,7 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
-from tacreasoner.evaluate.stepwise import STEP_TOKENS, conclude, free_question_view, steps_for
+from tacreasoner.evaluate.stepwise import READING_TEMPLATE, STEP_TOKENS, conclude, free_question_view, steps_for
 from tacreasoner.serve.engine import Prompt, Reply, Sampling, TactileEngine
 from tacreasoner.serve.stream import split_channels
 
@@ -20,21 +20,22 @@ __all__ = ["answer_stepwise"]
 
 
 def answer_stepwise(engine: TactileEngine, question: str, videos: Sequence[Any], vocabulary: str,
-                    *, timeout_s: float | None = None) -> Reply | None:
+                    *, templates: Sequence[str] = (READING_TEMPLATE,), timeout_s: float | None = None) -> Reply | None:
     """The stepwise reply to ``question`` about ``videos`` (paths or frames, one per ``<tactile>``), in
-    ``vocabulary``'s level words; None when the question is not one the mode reads. Greedy sub-replies of at most
-    :data:`~tacreasoner.evaluate.stepwise.STEP_TOKENS` tokens, in one batch."""
+    ``vocabulary``'s level words, each video read in each of ``templates`` (the majority level;
+    ``evaluate.stepwise.VOTE_TEMPLATES`` for all); None when the question is not one the mode reads. Greedy
+    sub-replies of at most :data:`~tacreasoner.evaluate.stepwise.STEP_TOKENS` tokens, in one batch."""
     view = free_question_view(question, len(videos), vocabulary)
     if view is None:
         return None
     keys = [(f"video{k + 1}", None, None) for k in range(len(videos))]
     video_of = dict(zip(keys, videos, strict=True))
-    steps = steps_for(view, keys)
+    steps = steps_for(view, keys, templates)
     start = time.perf_counter()
     sampling = Sampling(max_new_tokens=STEP_TOKENS)
     replies = engine.complete_batch([Prompt.ask(s.question, [video_of[k] for k in s.videos]) for s in steps],
                                     [sampling] * len(steps), timeout_s=timeout_s)
-    composed = conclude(view, keys, {s.key: r.text for s, r in zip(steps, replies, strict=True)})
+    composed = conclude(view, keys, {s.key: r.text for s, r in zip(steps, replies, strict=True)}, templates)
     reasoning, content = split_channels(composed.reply)  # as a served reply's two channels
     total = time.perf_counter() - start
     completion = sum(r.completion_tokens for r in replies)
