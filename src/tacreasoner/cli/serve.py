@@ -87,11 +87,11 @@ def ask(
     engine = _load_engine(model, dtype=dtype)
     prompt = Prompt.ask(question, [str(p) for p in video])
     if answers != "direct":
-        from tacreasoner.evaluate.stepwise import READING_TEMPLATE, VOTE_TEMPLATES
+        from tacreasoner.evaluate.stepwise import reading_templates
         from tacreasoner.serve.stepwise import answer_stepwise
 
-        templates = VOTE_TEMPLATES if answers == "stepwise-vote" else (READING_TEMPLATE,)
-        stepped = answer_stepwise(engine, question, [str(p) for p in video], vocabulary, templates=templates)
+        stepped = answer_stepwise(engine, question, [str(p) for p in video], vocabulary,
+                                  templates=reading_templates(answers))
         if stepped is not None:
             if as_json:
                 typer.echo(json.dumps({"model": str(model), "videos": [str(v) for v in video], "answers": answers,

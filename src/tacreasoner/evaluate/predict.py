@@ -391,9 +391,9 @@ def _answer_stepwise(items: Sequence[QAItem], keys: Mapping[str, Sequence[VideoK
     """Answer ``items`` in the stepwise mode (:mod:`tacreasoner.evaluate.stepwise`): their sub-questions (each asked
     once, kept in :func:`steps_path` so a resumed run asks none twice), then each item's reply composed and written
     to ``f``."""
-    from tacreasoner.evaluate.stepwise import READING_TEMPLATE, STEP_TOKENS, VOTE_TEMPLATES, conclude, steps_for
+    from tacreasoner.evaluate.stepwise import STEP_TOKENS, conclude, reading_templates, steps_for
 
-    templates = VOTE_TEMPLATES if answers == "stepwise-vote" else (READING_TEMPLATE,)
+    templates = reading_templates(answers)
     path = steps_path(out)
     said: dict[str, str] = {}
     if path.is_file():

@@ -42,6 +42,7 @@ from tacreasoner.tasks.conclude import (
     Levels,
     asked,
     implied_answers,
+    labelled_levels,
     needed_attributes,
     read_levels,
     read_needs,
@@ -53,7 +54,7 @@ from tacreasoner.tasks.templating import load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
 
 __all__ = ["STEP_TOKENS", "VOTE_TEMPLATES", "Step", "Stepwise", "conclude", "free_question_view", "question_view",
-           "steps_for"]
+           "reading_templates", "steps_for"]
 
 STEP_TOKENS = 96
 """Reply budget of one sub-question: a reading is a level word (~5 tokens), three named objects' levels ~40, a
@@ -65,6 +66,7 @@ READING_TEMPLATE = "tfa_choices"
 VOTE_TEMPLATES = ("tfa_choices", "tfa_level", "tfa_describe", "tfa_feel")
 """``stepwise-vote``: every single-clip wording of ``tasks/templates/tfa.yaml``, the level taken by majority."""
 _OPTION = re.compile(r"\(([A-C])\)[^:\n(]*:\s*([^.\n(]*)")
+"""``(A) lemon: soft, …`` in a reply listing all three named objects on one line: a span stops at the next ``(``."""
 
 VideoKey = Any
 """A video as the answering code keys it (``train.data.video_key``: path, start, end)."""
@@ -156,8 +158,7 @@ def _reading_key(attribute: str, key: VideoKey, template: str = READING_TEMPLATE
 
 def _reading_question(item: QAItem, attribute: str, template_id: str = READING_TEMPLATE) -> str:
     template = next(t for t in load_templates()["tfa"] if t.id == template_id)
-    quoted = [f'"{phrase}"' for phrase in get_vocabulary(item.vocabulary)[attribute].levels]
-    return template.render(attribute=attribute, choices=f"{', '.join(quoted[:-1])} or {quoted[-1]}")
+    return template.render(attribute=attribute, choices=get_vocabulary(item.vocabulary)[attribute].choices)
 
 
 def _options_text(item: QAItem) -> str:
@@ -187,9 +188,7 @@ def _said(reply: str) -> str:
 
 def _options_read(reply: str, item: QAItem) -> list[Levels | None]:
     vocab = get_vocabulary(item.vocabulary)
-    spans = {m.group(1): m.group(2) for m in reversed(list(_OPTION.finditer(_said(reply))))}
-    return [read_levels(spans[letter], list(vocab), vocab) if letter in spans else None
-            for letter in "ABC"[: len(item.options)]]
+    return labelled_levels(_OPTION, _said(reply), "ABC"[: len(item.options)], list(vocab), vocab)
 
 
 def _answer_text(item: QAItem, answer: Any) -> str:
@@ -205,6 +204,11 @@ def _answer_text(item: QAItem, answer: Any) -> str:
     if item.meta.get("answer_form") == "letter":  # a training wording that letters the objects
         return "ABC"[int(answer)]
     return ordinal_answer(int(answer))
+
+
+def reading_templates(answers: str) -> tuple[str, ...]:
+    """The single-clip wordings each video is read in for an answering mode: all of them for ``stepwise-vote``."""
+    return VOTE_TEMPLATES if answers == "stepwise-vote" else (READING_TEMPLATE,)
 
 
 def _vote(ranks: Sequence[int | None]) -> int | None:

@@ -31,7 +31,8 @@ from tacreasoner.tasks.scoring import TSA_LETTERS, _find_phrases, score_item
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
 __all__ = ["REASONED_TASKS", "Consistency", "Levels", "asked", "consistency", "implied_answers", "item_levels",
-           "needed_attributes", "option_levels", "parsed_answer", "read_levels", "read_needs", "stated_levels"]
+           "labelled_levels", "needed_attributes", "option_levels", "parsed_answer", "read_levels", "read_needs",
+           "stated_levels"]
 
 REASONED_TASKS = ("SFD", "PC", "SOI", "OSC", "TSA")
 """Tasks over several objects whose answer follows from per-object levels."""
@@ -129,6 +130,14 @@ def read_needs(text: str, attributes: Sequence[str]) -> dict[str, str]:
     return out
 
 
+def labelled_levels(pattern: re.Pattern[str], text: str, labels: Sequence[str], attributes: Sequence[str],
+                    vocab: Mapping[str, Attribute]) -> list[Levels | None]:
+    """Per label (``1``, ``A`` …), the levels of ``attributes`` that ``text`` states after it (``pattern``: group 1
+    the label, group 2 the span read; the first statement of a label wins); None where it states them not once."""
+    spans = {m.group(1).upper(): m.group(2) for m in reversed(list(pattern.finditer(text)))}
+    return [read_levels(spans[k], attributes, vocab) if k in spans else None for k in labels]
+
+
 def stated_levels(item: QAItem, reasoning: str, needs: Mapping[str, str] | None = None,
                   ) -> tuple[list[Levels], list[Levels]] | None:
     """(per video, per option) levels a reply's reasoning states (``Video 1: hard, rough.`` …; OSC also
@@ -138,8 +147,7 @@ def stated_levels(item: QAItem, reasoning: str, needs: Mapping[str, str] | None 
     needed = [a for a in vocab if a in needs] if item.task == "TSA" and needs else needed_attributes(item)
 
     def read(pattern: re.Pattern[str], keys: Sequence[str]) -> list[Levels] | None:
-        spans = {m.group(1).upper(): m.group(2) for m in reversed(list(pattern.finditer(reasoning)))}
-        levels = [read_levels(spans[k], needed, vocab) if k in spans else None for k in keys]
+        levels = labelled_levels(pattern, reasoning, keys, needed, vocab)
         return None if any(v is None for v in levels) else levels  # type: ignore[return-value]
 
     videos = read(_VIDEO, [str(v + 1) for v in range(len(item.videos))])

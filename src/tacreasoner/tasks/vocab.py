@@ -20,6 +20,12 @@ class Attribute:
     most: str
     least: str
 
+    @property
+    def choices(self) -> str:
+        """``"soft", "moderately hard" or "hard"``: the level phrases as a single-clip question lists them."""
+        quoted = [f'"{phrase}"' for phrase in self.levels]
+        return f"{', '.join(quoted[:-1])} or {quoted[-1]}"
+
     def phrase(self, level: int) -> str:
         if level not in (0, 1, 2):
             raise ValueError(f"{self.name}: level must be 0, 1 or 2, got {level!r}")

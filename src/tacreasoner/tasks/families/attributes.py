@@ -21,8 +21,7 @@ def tfa(clips: Sequence[TactileClip], n: int | None, ctx: BuildContext) -> list[
     if start is None:
         return ctx.finish()
     cycler, plan = start
-    quoted = [f'"{phrase}"' for phrase in attr.levels]
-    choices = f"{', '.join(quoted[:-1])} or {quoted[-1]}"
+    choices = attr.choices
 
     def attempt(p: dict) -> bool:
         c = cycler.next()
