@@ -153,3 +153,28 @@ def test_ask_stepwise_reads_each_video_and_shows_the_readings(served_model: Path
     assert voted.exit_code == 0 and json.loads(voted.stdout)["timings"]["steps"] == 8  # 2 videos x 4 wordings
     bad = CliRunner().invoke(app, [*base, "--vocabulary", "octopi"])
     assert bad.exit_code == 2 and "unknown vocabulary 'octopi'" in bad.output
+
+
+@pytest.mark.parametrize(("options", "said"), [
+    (["--decode-timeout", "0"], "error: --decode-timeout must be above 0, got 0"),
+    (["--max-request-mb", "0"], "error: --max-request-mb must be above 0, got 0"),
+    (["--max-request-mb", "-1"], "error: --max-request-mb must be above 0, got -1"),
+    (["--answers", "twice"], "error: answers must be one of direct, stepwise, stepwise-vote; got 'twice'"),
+])
+def test_serve_refuses_at_start_what_would_fail_every_request(tmp_path: Path, options: list[str], said: str) -> None:
+    result = CliRunner().invoke(app, ["serve", "--model", str(tmp_path), "--port", str(free_port()), *options])
+    assert result.exit_code == 2 and result.output.strip().splitlines() == [said]  # before any model is loaded
+
+
+def test_demo_finds_a_taken_port_before_loading_the_model(tmp_path: Path) -> None:
+    pytest.importorskip("gradio")
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        result = CliRunner().invoke(app, ["demo", "--model", str(tmp_path), "--port", str(port),
+                                          "--examples", str(tmp_path / "examples")])  # not a model
+    assert result.exit_code == 2, result.output
+    assert result.output.strip().splitlines() == \
+        [f"error: cannot listen on 127.0.0.1:{port}: Address already in use (is another server running there?)"]
+    assert not (tmp_path / "examples").exists(), "nothing is made before the port is known to be free"

@@ -19,7 +19,10 @@ from tacreasoner.serve.demo import (
     EXAMPLE_CHOICES,
     EXAMPLES,
     FRAMES_SHOWN,
+    INTERNAL_ERROR,
     MAX_CLIPS,
+    UPLOAD_MAX_AGE_S,
+    UPLOAD_SWEEP_S,
     DemoCallbacks,
     build_demo,
     clip_views,
@@ -27,6 +30,7 @@ from tacreasoner.serve.demo import (
     heat_figure,
     question_for,
 )
+from tacreasoner.serve.stepwise import StepwiseAnswerer
 from tests.serve.served import ONE, free_port, press_clip
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
@@ -140,6 +144,38 @@ def test_user_errors_are_a_message_and_one_log_line_not_a_traceback(tmp_path: Pa
     assert "press_0.mp4: longer than 8 frames" in replies["long"][0][2]
     assert len(warned) == 5 and [r.getMessage() for r in caplog.records] == [f"demo: {w}" for w in warned]
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_the_demos_own_errors_keep_their_traceback_in_the_log_and_say_internal_error(
+        clip_files: list[Path], caplog: pytest.LogCaptureFixture) -> None:
+    class Broken:
+        def stream(self, *args: Any, **kwargs: Any) -> Any:
+            raise ValueError("shape mismatch deep inside")  # a ValueError, but not the user's mistake
+
+    warned: list[str] = []
+    calls = DemoCallbacks(Broken(), {}, warn=warned.append)  # type: ignore[arg-type]
+    with caplog.at_level(logging.WARNING, logger="tacreasoner.demo"):
+        replies = list(calls.ask([str(clip_files[0])], None, "Is it soft?", False))
+    assert replies == [("", "", f"**{INTERNAL_ERROR}**")] and warned == [INTERNAL_ERROR]
+    [record] = caplog.records
+    assert record.levelno == logging.ERROR and record.exc_info and "shape mismatch" in str(record.exc_info[1])
+
+
+def test_the_page_sweeps_old_uploads(examples: dict[str, Path]) -> None:
+    page = build_demo(None, examples)  # type: ignore[arg-type]
+    assert page.delete_cache == (UPLOAD_SWEEP_S, UPLOAD_MAX_AGE_S) and UPLOAD_MAX_AGE_S <= 86400
+
+
+def test_a_stepwise_demo_shows_each_clips_reading_for_a_comparison(served_model: Path,
+                                                                   clip_files: list[Path]) -> None:
+    engine = TactileEngine.load(served_model, device="cpu")
+    calls = DemoCallbacks(engine, {}, warn=pytest.fail, stepwise=StepwiseAnswerer("stepwise", "physiclear"))
+    *_, (reasoning, answer, status) = calls.ask([str(p) for p in clip_files[:2]], None,
+                                                "Which of the two feels harder?", False)
+    assert reasoning.startswith("Video 1: ") and "Video 2: " in reasoning, reasoning
+    assert answer in ("the first object", "the second object") and status.startswith("stepwise: 2 passes")
+    *_, (_, _, one_status) = calls.ask([str(clip_files[0])], None, "Is this object soft or hard?", False)
+    assert "passes" not in one_status  # one clip: one pass, as before
 
 
 @pytest.fixture(scope="module")

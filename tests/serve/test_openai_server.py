@@ -171,7 +171,7 @@ def test_server_faults_are_5xx_without_a_traceback(engine: TactileEngine, clip_f
                                                    free_port: Callable[[], int],
                                                    monkeypatch: pytest.MonkeyPatch) -> None:
     messages = _ask(ONE, _video(clip_files[0]))
-    with _server(engine, free_port(), decode_timeout_s=0.0) as base:
+    with _server(engine, free_port(), decode_timeout_s=1e-6) as base:
         with pytest.raises(openai.InternalServerError) as caught:
             _client(base).chat.completions.create(model="tacreasoner", messages=messages, max_tokens=40)
         assert caught.value.status_code == 504 and caught.value.code == "decode_timeout"
@@ -281,11 +281,21 @@ def test_a_body_that_is_not_a_json_object_is_a_400_saying_so(url: str, body: str
     assert message.startswith("the body must be a JSON object") and "ChatRequest" not in message, message
 
 
-def test_timings_count_the_time_spent_preparing_the_clip(url: str, clip_files: list[Path]) -> None:
+def test_timings_count_the_time_spent_preparing_the_clip(url: str, clip_files: list[Path],
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    from tacreasoner.serve import media
+
+    decode = media.decode_video_bytes
+
+    def slow_decode(*args: Any, **kwargs: Any) -> Any:  # decoding this clip takes at least 0.3 s
+        time.sleep(0.3)
+        return decode(*args, **kwargs)
+
+    monkeypatch.setattr(media, "decode_video_bytes", slow_decode)
     answer = httpx.post(f"{url}/v1/chat/completions", headers={"Authorization": f"Bearer {KEY}"}, timeout=60,
                         json={"model": "tacreasoner", "messages": _ask(ONE, _video(clip_files[0])), "max_tokens": 8})
     timings = answer.json()["timings"]
-    assert timings["prepare_s"] > 0, "decoding the clip and tokenising take time"
+    assert timings["prepare_s"] >= 0.3, "the clip's decoding is part of preparing it"
     assert timings["total_s"] >= timings["prepare_s"] + timings["decode_s"] - 1e-3
 
 
@@ -302,3 +312,43 @@ def test_the_api_schema_needs_the_key_too(url: str) -> None:
 def test_without_a_key_the_schema_is_open(engine: TactileEngine, free_port: Callable[[], int]) -> None:
     with _server(engine, free_port()) as base:
         assert httpx.get(f"{base}/openapi.json").status_code == 200
+
+
+COMPARE = "Which of these feels harder: <tactile> or <tactile>?"
+
+
+def test_a_stepwise_server_reads_each_video_of_a_comparison_and_shows_the_readings(
+        engine: TactileEngine, clip_files: list[Path], free_port: Callable[[], int]) -> None:
+    two = [_video(clip_files[0]), _video(clip_files[1])]
+    with _server(engine, free_port(), answers="stepwise") as base:
+        client = _client(base)
+        reply = client.chat.completions.create(model="tacreasoner", messages=_ask(COMPARE, *two), max_tokens=40)
+        message = reply.choices[0].message
+        reasoning = message.reasoning_content  # type: ignore[attr-defined]
+        assert reasoning.startswith("Video 1: ") and "Video 2: " in reasoning
+        assert message.content in ("the first object", "the second object")
+        assert reply.model_extra["timings"]["steps"] == 2 and reply.model_extra["timings"]["prepare_s"] > 0
+        pieces = list(client.chat.completions.create(model="tacreasoner", messages=_ask(COMPARE, *two),
+                                                     stream=True))
+        streamed = "".join(getattr(p.choices[0].delta, "reasoning_content", None) or "" for p in pieces if p.choices)
+        assert streamed == reasoning, "the stream carries the same reply"
+        # one video's question, and a sampled comparison, are one pass: the model's own words, no readings
+        one = client.chat.completions.create(model="tacreasoner", messages=_ask(ONE, _video(clip_files[0])),
+                                             max_tokens=40)
+        assert one.choices[0].message.content == "soft" and "steps" not in one.model_extra["timings"]
+        sampled = client.chat.completions.create(model="tacreasoner", messages=_ask(COMPARE, *two), max_tokens=8,
+                                                 temperature=0.7, seed=1)
+        assert "steps" not in sampled.model_extra["timings"]
+    with _server(engine, free_port()) as base:  # direct by default
+        plain = _client(base).chat.completions.create(model="tacreasoner", messages=_ask(COMPARE, *two),
+                                                      max_tokens=8)
+        assert "steps" not in plain.model_extra["timings"]
+
+
+@pytest.mark.parametrize(("setting", "value"), [("decode_timeout_s", 0.0), ("max_request_bytes", 0),
+                                                ("max_pending", 0), ("max_batch", -1)])
+def test_settings_that_would_fail_every_request_are_refused(setting: str, value: float) -> None:
+    with pytest.raises(ValueError, match=f"ServerSettings.{setting} must be above 0"):
+        ServerSettings(**{setting: value})
+    with pytest.raises(ValueError, match="answers must be one of"):
+        ServerSettings(answers="twice")

@@ -22,6 +22,22 @@ ASK_OPTIONS = {"max_tokens": "--max-new-tokens", "temperature": "--temperature",
 ModelDir = Annotated[Path, typer.Option("--model", help="Trained model directory (a training run's stage2/model).")]
 Host = Annotated[str, typer.Option(help="Address to listen on (0.0.0.0 for every interface).")]
 Port = Annotated[int, typer.Option(help="TCP port.")]
+Answers = Annotated[str, typer.Option(
+    "--answers", help="direct: one pass; stepwise: a question comparing objects (which is softer, more/less/similar, "
+                      "the roughest of three, which named object is which, which suits a scenario) is answered by "
+                      "reading each video in a pass of its own and concluding by rule, the readings shown (other "
+                      "questions, and sampled ones, in one pass); stepwise-vote: each video read in every "
+                      "single-clip wording, the majority level (how evaluate-physiclear answers; recommended for a "
+                      "PhysiCLeAR model).")]
+Vocabulary = Annotated[str, typer.Option(
+    "--vocabulary", help="With --answers stepwise[-vote]: the level words the model was trained on (physiclear: "
+                         "soft / moderately hard / hard …; vtv150k: DynTAC-Sim's).")]
+
+
+def _above_zero(option: str, value: float) -> None:
+    """A limit of 0 or less would fail every request; it is refused at start instead."""
+    if not value > 0:
+        raise ValueError(f"{option} must be above 0, got {value:g}")
 
 
 def _load_engine(model: Path, name: str = "tacreasoner", dtype: str = "float32") -> Any:
@@ -56,15 +72,8 @@ def ask(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object (think, answer, timings) "
                                                          "instead of streaming.")] = False,
     dtype: Dtype = "float32",
-    answers: Annotated[str, typer.Option(
-        "--answers", help="direct: one pass; stepwise: a question comparing objects (which is softer, more/less/"
-                          "similar, the roughest of three, which named object is which, which suits a scenario) is "
-                          "answered by reading each video in a pass of its own and concluding by rule, the readings "
-                          "shown (other questions: one pass); stepwise-vote: each video read in every single-clip "
-                          "wording, the majority level (how evaluate-physiclear answers).")] = "direct",
-    vocabulary: Annotated[str, typer.Option(
-        "--vocabulary", help="With --answers stepwise[-vote]: the level words the model was trained on (physiclear: "
-                             "soft / moderately hard / hard …; vtv150k: DynTAC-Sim's).")] = "physiclear",
+    answers: Answers = "direct",
+    vocabulary: Vocabulary = "physiclear",
 ) -> None:
     """Ask a trained model about tactile videos; streams its reasoning as it is generated, then the answer."""
     needs_train_extra("ask")
@@ -158,6 +167,8 @@ def serve(
         "--threads", help="CPU threads the model may use (torch.set_num_threads; at least 1). Default: torch's "
                           "choice (usually one per core).", show_default=False)] = None,
     dtype: Dtype = "float32",
+    answers: Answers = "direct",
+    vocabulary: Vocabulary = "physiclear",
 ) -> None:
     """Serve a trained model with the OpenAI chat completions API (videos as video_url parts)."""
     needs_train_extra("serve")
@@ -166,11 +177,17 @@ def serve(
     from tacreasoner.serve.http import bind_socket, serve_forever
     from tacreasoner.serve.media import MediaLimits
     from tacreasoner.serve.openai_api import ServerSettings, create_app
+    from tacreasoner.serve.stepwise import StepwiseAnswerer
 
     for value, option in ((max_batch, "--max-batch"), (max_pending, "--max-pending"), (max_videos, "--max-videos"),
                           (threads, "--threads")):
         at_least_one(option, value)
+    _above_zero("--decode-timeout", decode_timeout)
+    _above_zero("--max-request-mb", max_request_mb)
+    if int(max_request_mb * 2**20) < 1:
+        raise ValueError(f"--max-request-mb {max_request_mb:g} is under one byte")
     check_dtype(dtype)
+    StepwiseAnswerer(answers, vocabulary)  # checked before the model loads
     dirs = tuple(d.resolve() for d in allow_dir or [])
     for d in dirs:
         if not d.is_dir():
@@ -184,10 +201,11 @@ def serve(
         engine = _load_engine(model, name, dtype)
         settings = ServerSettings(api_key=api_key, max_request_bytes=int(max_request_mb * 2**20),
                                   decode_timeout_s=decode_timeout, max_pending=max_pending, max_batch=max_batch,
-                                  limits=MediaLimits(max_videos=max_videos, allowed_dirs=dirs))
+                                  limits=MediaLimits(max_videos=max_videos, allowed_dirs=dirs),
+                                  answers=answers, vocabulary=vocabulary)
         console.print(f"serving {model} as {name!r} on http://{host}:{port}/v1 "
                       f"({'API key required' if api_key else 'no API key'}; batching up to {max_batch}"
-                      f"{f'; torch threads: {threads}' if threads else ''})")
+                      f"{f'; torch threads: {threads}' if threads else ''}; answers: {answers})")
         serve_forever(create_app(engine, settings), host=host, port=port, sock=sock)
     finally:
         sock.close()
@@ -202,6 +220,8 @@ def demo(
     examples: Annotated[Path, typer.Option(help="Where the simulated example clips are made (once).")] =
         Path("runs/demo_examples"),
     dtype: Dtype = "float32",
+    answers: Answers = "direct",
+    vocabulary: Vocabulary = "physiclear",
 ) -> None:
     """A web page: upload 1-3 tactile clips (or pick simulated ones), see what the sensor felt, ask, watch the
     reasoning stream."""
@@ -209,9 +229,14 @@ def demo(
     _needs_serve_extra("demo", ("gradio",))
     from tacreasoner.evaluate.predict import check_dtype
     from tacreasoner.serve.demo import build_demo, example_clips
+    from tacreasoner.serve.http import bind_socket
+    from tacreasoner.serve.stepwise import StepwiseAnswerer
 
     check_dtype(dtype)
+    stepwise = StepwiseAnswerer(answers, vocabulary)
+    bind_socket(host, port).close()  # a taken port is found now, not after loading the model
     engine = _load_engine(model, dtype=dtype)
     clips = example_clips(examples)
-    console.print(f"demo of {model} on http://{host}:{port}")
-    build_demo(engine, clips).launch(server_name=host, server_port=port, show_error=True)
+    console.print(f"demo of {model} on http://{host}:{port} (answers: {answers})")
+    build_demo(engine, clips, stepwise=stepwise).launch(
+        server_name=host, server_port=port, show_error=True)

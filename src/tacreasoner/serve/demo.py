@@ -5,7 +5,10 @@ Upload one to three clips (or pick a simulated one, or a simulated pair), see sa
 phases), ask a question and watch the reasoning stream in. The plots come from :mod:`tacreasoner.data.cues`, the same
 signals the TouchCoT teacher reads. Each upload or pick replaces the clips shown before; a user's mistake (no clip,
 an unreadable or too short or too long clip, too many clips) is a warning on the page and one log line, never a
-traceback.
+traceback; anything else is the demo's fault: logged with its traceback, and the page says an internal error
+happened. Uploads are kept by gradio for a day at most (:data:`UPLOAD_MAX_AGE_S`), swept every hour. With
+``answers="stepwise"`` (or ``stepwise-vote``) a question comparing clips is answered as ``ask --answers`` does: each
+clip read in a pass of its own, the readings and the rule's step shown as the reasoning.
 """
 
 from __future__ import annotations
@@ -23,9 +26,10 @@ from tacreasoner.data.cues import detect_phases, frame_signals
 from tacreasoner.evaluate.predict import REPLY_TOKENS
 from tacreasoner.serve.engine import Prompt, Reply, RequestError, Sampling, TactileEngine, check_clip_length
 from tacreasoner.serve.media import MediaLimits
+from tacreasoner.serve.stepwise import StepwiseAnswerer
 from tacreasoner.serve.stream import Delta
 from tacreasoner.tasks.schema import PLACEHOLDER
-from tacreasoner.video_io import probe_video, read_video, write_video
+from tacreasoner.video_io import VideoError, probe_video, read_video, write_video
 
 __all__ = ["EXAMPLES", "EXAMPLE_CHOICES", "DemoCallbacks", "build_demo", "chosen_clips", "clip_views",
            "example_clips", "heat_figure", "latest_upload", "question_for", "read_clips"]
@@ -45,8 +49,13 @@ FRAMES_SHOWN = 6
 """Sampled frames shown per clip: one row of its own gallery."""
 TITLE_CHARS = 28
 """Longest clip name in a plot title; longer names (uploads' file names) are shortened so titles never overlap."""
-USER_ERRORS = (RequestError, ValueError, FileNotFoundError)
-"""A user's mistakes (VideoError is a ValueError): shown on the page, logged in one line, no traceback."""
+USER_ERRORS = (RequestError, VideoError, FileNotFoundError)
+"""A user's mistakes: shown on the page, logged in one line, no traceback. Any other error is the demo's own."""
+INTERNAL_ERROR = "internal error: the demo's log has the traceback"
+UPLOAD_SWEEP_S = 3600
+UPLOAD_MAX_AGE_S = 86400
+"""gradio's cache (uploads included) is swept every hour of files older than a day: a demo left running for weeks
+does not fill its disk with every clip anyone uploaded."""
 PHASE_COLOURS = {"press": "#4e79a7", "hold": "#59a14f", "slide": "#f28e2b", "rotate": "#f28e2b",
                  "dynamic": "#f28e2b", "release": "#e15759"}
 
@@ -196,17 +205,23 @@ class DemoCallbacks:
     page) and one log line instead of a traceback, and leaves the views empty."""
 
     def __init__(self, engine: TactileEngine, examples: dict[str, Path], *, max_new_tokens: int = REPLY_TOKENS,
-                 max_frames: int = MediaLimits().max_frames, warn: Callable[[str], Any] | None = None) -> None:
+                 max_frames: int = MediaLimits().max_frames, warn: Callable[[str], Any] | None = None,
+                 stepwise: StepwiseAnswerer | None = None) -> None:
         import gradio as gr
 
         self.gr = gr
         self.engine = engine
+        self.stepwise = stepwise or StepwiseAnswerer()
         self.examples = examples
         self.max_new_tokens = max_new_tokens
         self.max_frames = max_frames
         self.warn = warn or gr.Warning
 
     def _fail(self, exc: BaseException) -> str:
+        if not isinstance(exc, USER_ERRORS):  # the demo's fault: the traceback goes to the log
+            log.error("demo: %s", INTERNAL_ERROR, exc_info=exc)
+            self.warn(INTERNAL_ERROR)
+            return INTERNAL_ERROR
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         log.warning("demo: %s", message)
         self.warn(message)
@@ -221,7 +236,7 @@ class DemoCallbacks:
             frames, fps = read_clips(chosen, self.max_frames)
             names = [name for name, _ in chosen]
             gallery, heat, curve = clip_views(frames, names, fps, FRAMES_SHOWN)
-        except USER_ERRORS as exc:
+        except Exception as exc:
             self._fail(exc)
             return (*[hidden] * MAX_CLIPS, None, None)
         galleries = [self.gr.update(value=gallery[k * FRAMES_SHOWN:(k + 1) * FRAMES_SHOWN], label=names[k],
@@ -234,7 +249,7 @@ class DemoCallbacks:
         latest = latest_upload(files, before or [])
         try:
             chosen = chosen_clips(latest, None, self.examples)
-        except USER_ERRORS as exc:
+        except Exception as exc:
             self._fail(exc)
             chosen = []
         return ([str(p) for p in latest], [str(p) for p in latest], None, *self._views(chosen))
@@ -244,7 +259,7 @@ class DemoCallbacks:
         paths = _paths(files)
         try:
             chosen = chosen_clips(paths, None, self.examples)
-        except USER_ERRORS as exc:
+        except Exception as exc:
             self._fail(exc)
             chosen = []
         return ([str(p) for p in paths], *self._views(chosen))
@@ -267,6 +282,14 @@ class DemoCallbacks:
             prompt = Prompt.ask(question_for(question.strip(), len(chosen)), frames)
             sampling = Sampling(max_new_tokens=self.max_new_tokens, temperature=0.7 if sample else 0.0,
                                 top_p=0.9 if sample else 1.0)
+            stepwise = self.stepwise.question(prompt, sampling)
+            if stepwise is not None:
+                yield "", "", f"reading each clip ({self.stepwise.answers})…"
+                reply = self.stepwise.answer(self.engine, stepwise, frames)
+                yield reply.reasoning, reply.content or "(no answer)", \
+                    f"{self.stepwise.answers}: {int(reply.timings['steps'])} passes, {reply.completion_tokens} " \
+                    f"tokens in {reply.timings['total_s']:.2f} s"
+                return
             parts = {"reasoning": "", "content": ""}
             for piece in self.engine.stream(prompt, sampling):
                 if isinstance(piece, Delta):
@@ -276,17 +299,18 @@ class DemoCallbacks:
                     t = piece.timings
                     yield piece.reasoning, piece.content or "(no answer)", \
                         f"{piece.completion_tokens} tokens in {t['total_s']:.2f} s ({piece.finish_reason})"
-        except USER_ERRORS as exc:
+        except Exception as exc:  # a user's mistake is said as such; the demo's own is logged with its traceback
             yield "", "", f"**{self._fail(exc)}**"
 
 
-def build_demo(engine: TactileEngine, examples: dict[str, Path], *, max_new_tokens: int = REPLY_TOKENS) -> Any:
-    """The gradio Blocks app (``.launch()`` it)."""
+def build_demo(engine: TactileEngine, examples: dict[str, Path], *, max_new_tokens: int = REPLY_TOKENS,
+               stepwise: StepwiseAnswerer | None = None) -> Any:
+    """The gradio Blocks app (``.launch()`` it); ``stepwise``: how comparisons are answered (one pass by default)."""
     os.environ.setdefault("GRADIO_ANALYTICS_ENABLED", "False")
     import gradio as gr
 
-    calls = DemoCallbacks(engine, examples, max_new_tokens=max_new_tokens)
-    with gr.Blocks(title="TacReasoner") as page:
+    calls = DemoCallbacks(engine, examples, max_new_tokens=max_new_tokens, stepwise=stepwise)
+    with gr.Blocks(title="TacReasoner", delete_cache=(UPLOAD_SWEEP_S, UPLOAD_MAX_AGE_S)) as page:
         gr.Markdown("# TacReasoner\nTactile clips in, reasoning and an answer out. Upload 1 to 3 GelSight-style "
                     "videos (each upload replaces the clips before) or pick a simulated example; write `<tactile>` "
                     "where each clip belongs in the question, or leave it out and the clips go first.")

@@ -16,7 +16,7 @@ import json
 import logging
 import time
 import uuid
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -31,6 +31,7 @@ from tacreasoner.evaluate.predict import REPLY_TOKENS
 from tacreasoner.serve.engine import DecodeTimeout, Reply, RequestError, Sampling, TactileEngine
 from tacreasoner.serve.media import MediaLimits, messages_to_prompt
 from tacreasoner.serve.scheduler import Busy, Scheduler
+from tacreasoner.serve.stepwise import StepwiseAnswerer
 from tacreasoner.serve.stream import Delta
 
 __all__ = ["ServerSettings", "create_app"]
@@ -53,6 +54,17 @@ class ServerSettings:
     """Requests whose videos are decoded at once, beside the model's thread: a flood of (malformed) requests then
     takes one core at most, never the model's."""
     limits: MediaLimits = field(default_factory=MediaLimits)
+    answers: str = "direct"
+    """``stepwise`` or ``stepwise-vote``: a greedy one-turn question comparing objects is answered by reading each
+    video in a pass of its own and concluding by rule (:mod:`tacreasoner.serve.stepwise`); others in one pass."""
+    vocabulary: str = "physiclear"
+    """The level words the stepwise readings are in (the model's training benchmark's)."""
+
+    def __post_init__(self) -> None:
+        for name in ("max_request_bytes", "decode_timeout_s", "max_pending", "max_batch"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"ServerSettings.{name} must be above 0, got {getattr(self, name)}")
+        StepwiseAnswerer(self.answers, self.vocabulary)  # a known answering mode and vocabulary
 
 
 class ChatRequest(BaseModel):
@@ -102,6 +114,7 @@ def _usage(reply: Reply) -> dict[str, int]:
 def create_app(engine: TactileEngine, settings: ServerSettings | None = None) -> FastAPI:
     """The app serving ``engine``; its scheduler thread starts now and stops with the app."""
     settings = settings or ServerSettings()
+    stepwise = StepwiseAnswerer(settings.answers, settings.vocabulary)
     scheduler = Scheduler(engine, max_pending=settings.max_pending, max_batch=settings.max_batch,
                           batch_window_s=settings.batch_window_s, decode_timeout_s=settings.decode_timeout_s)
 
@@ -170,8 +183,9 @@ def create_app(engine: TactileEngine, settings: ServerSettings | None = None) ->
         try:
             sampling = req.sampling()
             async with prepare_slots:
-                prepared = await run_in_threadpool(_prepare, engine, req.messages, settings.limits)
-            job = scheduler.submit(prepared, sampling, stream=req.stream)
+                prepared, work = await run_in_threadpool(_prepare, engine, req.messages, settings.limits, sampling,
+                                                         stepwise)
+            job = scheduler.submit(prepared, sampling, stream=req.stream, work=work)
         except RequestError as exc:
             return _error(400, str(exc), param=exc.param, code=exc.code)
         except Busy as exc:
@@ -197,13 +211,27 @@ def create_app(engine: TactileEngine, settings: ServerSettings | None = None) ->
     return app
 
 
-def _prepare(engine: TactileEngine, messages: list[dict[str, Any]], limits: MediaLimits) -> Any:
+def _prepare(engine: TactileEngine, messages: list[dict[str, Any]], limits: MediaLimits, sampling: Sampling,
+             stepwise: StepwiseAnswerer) -> tuple[Any, Callable[[TactileEngine, float | None], Reply] | None]:
     """Decode the videos and tokenise, in a worker thread (the model's thread never waits on a client's bytes);
-    the time it took, decoding included, is the reply's ``timings.prepare_s``."""
+    the time it took, decoding included, is the reply's ``timings.prepare_s``. A question answered stepwise comes
+    back as the work to run instead (its videos decoded)."""
     start = time.perf_counter()
-    prepared = engine.prepare(messages_to_prompt(messages, limits))
+    prompt = messages_to_prompt(messages, limits)
+    question = stepwise.question(prompt, sampling)
+    if question is not None:
+        decoded = time.perf_counter() - start
+
+        def work(engine: TactileEngine, timeout_s: float | None) -> Reply:
+            reply = stepwise.answer(engine, question, prompt.videos, timeout_s)
+            reply.timings = {"prepare_s": round(decoded, 4), **reply.timings,
+                             "total_s": round(decoded + reply.timings["total_s"], 4)}
+            return reply
+
+        return None, work
+    prepared = engine.prepare(prompt)
     prepared.prepare_s = time.perf_counter() - start
-    return prepared
+    return prepared, None
 
 
 def _json_kind(value: Any) -> str:

@@ -3,8 +3,9 @@
 The model uses every core for one ``generate`` call, so requests are answered one call at a time; concurrency is
 a queue in front of it (full → the caller is told the server is busy, instead of every request slowing down).
 Non-streamed requests that decode alike (:meth:`Sampling.batch_key`) and wait at the same moment are answered by
-one batched call; streamed ones run alone, token by token. Callers live on an asyncio loop; results come back to it
-thread-safely.
+one batched call; streamed ones run alone, token by token. A job may instead be a piece of work on the engine (a
+stepwise answer: several batched passes and a rule), run alone; streamed, its reply comes as two pieces at the end.
+Callers live on an asyncio loop; results come back to it thread-safely.
 """
 
 from __future__ import annotations
@@ -14,10 +15,12 @@ import queue
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 from tacreasoner.serve.engine import Reply, Sampling, TactileEngine
+from tacreasoner.serve.stream import Delta
 
 __all__ = ["Busy", "Scheduler"]
 
@@ -34,6 +37,12 @@ class _Job:
     stream: bool
     out: asyncio.Queue | asyncio.Future  # stream: pieces then None; else: the Reply or an exception
     cancelled: threading.Event = field(default_factory=threading.Event)
+    work: Callable[[TactileEngine, float | None], Reply] | None = None
+    """Set for a job that is not one ``generate`` call: run alone, given the engine and the decode timeout."""
+
+    @property
+    def batchable(self) -> bool:
+        return not self.stream and self.work is None
 
 
 _STOP = object()
@@ -49,27 +58,39 @@ class Scheduler:
         self.max_batch = max(1, max_batch)
         self.batch_window_s = batch_window_s
         self.decode_timeout_s = decode_timeout_s
-        self._queue: queue.Queue[Any] = queue.Queue(maxsize=max_pending)
+        self.max_pending = max_pending
+        self._queue: queue.Queue[Any] = queue.Queue()
+        self._room = threading.Lock()
+        self._waiting = 0
+        """Jobs submitted and not yet started: queued, or held back while a batch gathered."""
         self._held: deque[_Job] = deque()
         self.stats = {"calls": 0, "batched_requests": 0, "largest_batch": 0}
         self._thread = threading.Thread(target=self._run, name="tacreasoner-scheduler", daemon=True)
         self._thread.start()
 
     # ------------------------------------------------------------------ asyncio side
-    def submit(self, prepared: Any, sampling: Sampling, *, stream: bool) -> _Job:
+    def submit(self, prepared: Any, sampling: Sampling, *, stream: bool,
+               work: Callable[[TactileEngine, float | None], Reply] | None = None) -> _Job:
+        """Queue a request (``prepared`` for ``engine``; or ``work`` to run on it); :class:`Busy` when
+        ``max_pending`` requests wait already, those held back from a batch included."""
         loop = asyncio.get_running_loop()
         out: asyncio.Queue | asyncio.Future = asyncio.Queue() if stream else loop.create_future()
-        job = _Job(prepared, sampling, loop, stream, out)
-        try:
-            self._queue.put_nowait(job)
-        except queue.Full:
-            raise Busy(f"the server is busy ({self._queue.maxsize} requests waiting); retry shortly") from None
+        job = _Job(prepared, sampling, loop, stream, out, work=work)
+        with self._room:
+            if self._waiting >= self.max_pending:
+                raise Busy(f"the server is busy ({self.max_pending} requests waiting); retry shortly")
+            self._waiting += 1
+        self._queue.put_nowait(job)
         return job
 
     @property
     def waiting(self) -> int:
-        """Requests in the queue, not yet taken by the model's thread."""
-        return self._queue.qsize() + len(self._held)
+        """Requests not yet taken by the model's thread: in the queue, or held back while a batch gathered."""
+        return self._waiting
+
+    def _started(self, jobs: int) -> None:
+        with self._room:
+            self._waiting -= jobs
 
     def close(self) -> None:
         self._queue.put(_STOP)
@@ -86,13 +107,18 @@ class Scheduler:
             job = self._next()
             if job is _STOP:
                 return
-            if job.stream:
-                self._stream(job)
+            if job.work is not None or job.stream:
+                self._started(1)
+                if job.work is not None:
+                    self._work(job)
+                else:
+                    self._stream(job)
                 continue
             batch = [job]
             key = job.sampling.batch_key()
             if self.max_batch > 1 and key is not None:
                 batch += self._gather(key)
+            self._started(len(batch))
             self._complete(batch)
 
     def _gather(self, key: tuple[Any, ...]) -> list[_Job]:
@@ -106,7 +132,7 @@ class Scheduler:
                 job = self._queue.get(timeout=max(left, 0.0)) if left > 0 else self._queue.get_nowait()
             except queue.Empty:
                 break
-            if job is not _STOP and not job.stream and job.sampling.batch_key() == key:
+            if job is not _STOP and job.batchable and job.sampling.batch_key() == key:
                 found.append(job)
             else:
                 others.append(job)
@@ -127,6 +153,25 @@ class Scheduler:
             replies = [exc] * len(live)
         for job, reply in zip(live, replies, strict=True):
             job.loop.call_soon_threadsafe(_settle, job.out, reply)
+
+    def _work(self, job: _Job) -> None:
+        if (isinstance(job.out, asyncio.Future) and job.out.cancelled()) or job.cancelled.is_set():
+            return
+        self.stats["calls"] += 1
+        try:
+            reply: Reply | BaseException = job.work(self.engine, self.decode_timeout_s)  # type: ignore[misc]
+        except BaseException as exc:
+            reply = exc
+        if not job.stream:
+            job.loop.call_soon_threadsafe(_settle, job.out, reply)
+            return
+        put = job.out.put_nowait  # type: ignore[union-attr]
+        if isinstance(reply, Reply):
+            for channel, text in (("reasoning", reply.reasoning), ("content", reply.content)):
+                if text:
+                    job.loop.call_soon_threadsafe(put, Delta(channel, text))
+        job.loop.call_soon_threadsafe(put, reply)
+        job.loop.call_soon_threadsafe(put, None)
 
     def _stream(self, job: _Job) -> None:
         self.stats["calls"] += 1

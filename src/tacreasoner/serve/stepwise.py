@@ -1,9 +1,10 @@
-"""A person's question over several objects answered stepwise by a served model (``ask --answers stepwise``).
+"""A person's question over several objects answered stepwise by a served model (``ask``, ``serve`` and ``demo``
+with ``--answers stepwise`` or ``stepwise-vote``).
 
 The same mode as the evaluation's (:mod:`tacreasoner.evaluate.stepwise`): what the question asks is read from its
 words (:func:`~tacreasoner.evaluate.stepwise.free_question_view`), each video is read in a pass of its own (named
 objects and a scenario's needs asked as text), and the rule writes the conclusion; the reply shows the readings and
-the step. A question it cannot read is left to the one-pass answer (this returns None).
+the step. A question it cannot read is left to the one-pass answer (:func:`stepwise_question` returns None).
 """
 
 from __future__ import annotations
@@ -12,11 +13,28 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
-from tacreasoner.evaluate.stepwise import READING_TEMPLATE, STEP_TOKENS, conclude, free_question_view, steps_for
+from tacreasoner.evaluate.stepwise import (
+    READING_TEMPLATE,
+    STEP_TOKENS,
+    conclude,
+    free_question_view,
+    reading_templates,
+    steps_for,
+)
 from tacreasoner.serve.engine import Prompt, Reply, Sampling, TactileEngine
 from tacreasoner.serve.stream import split_channels
 
-__all__ = ["answer_stepwise"]
+__all__ = ["StepwiseAnswerer", "answer_stepwise", "stepwise_question"]
+
+
+def stepwise_question(prompt: Prompt, vocabulary: str) -> str | None:
+    """The question of a one-turn ``prompt`` (a system turn allowed) when the stepwise mode reads it; None for a
+    conversation, or a question it does not read (answered in one pass)."""
+    users = [m for m in prompt.messages if m["role"] == "user"]
+    if len(users) != 1 or any(m["role"] == "assistant" for m in prompt.messages):
+        return None
+    question = users[0]["content"]
+    return question if free_question_view(question, len(prompt.videos), vocabulary) is not None else None
 
 
 def answer_stepwise(engine: TactileEngine, question: str, videos: Sequence[Any], vocabulary: str,
@@ -43,3 +61,32 @@ def answer_stepwise(engine: TactileEngine, question: str, videos: Sequence[Any],
                  prompt_tokens=sum(r.prompt_tokens for r in replies), completion_tokens=completion,
                  timings={"total_s": round(total, 4), "steps": len(steps),
                           "tokens_per_s": round(completion / total, 2) if total > 0 else 0.0})
+
+
+class StepwiseAnswerer:
+    """How a server or the demo answers: ``direct`` (every question in one pass), ``stepwise`` or
+    ``stepwise-vote`` (a comparison it reads, greedy; a sampled request keeps its one sampled pass, since the
+    readings and the rule are deterministic)."""
+
+    def __init__(self, answers: str = "direct", vocabulary: str = "physiclear") -> None:
+        from tacreasoner.evaluate.predict import check_answers
+        from tacreasoner.tasks.vocab import get_vocabulary
+
+        check_answers(answers)
+        get_vocabulary(vocabulary)
+        self.answers = answers
+        self.vocabulary = vocabulary
+
+    def question(self, prompt: Prompt, sampling: Sampling) -> str | None:
+        """The question to answer stepwise, or None: answered in one pass."""
+        if self.answers == "direct" or not sampling.greedy:
+            return None
+        return stepwise_question(prompt, self.vocabulary)
+
+    def answer(self, engine: TactileEngine, question: str, videos: Sequence[Any],
+               timeout_s: float | None = None) -> Reply:
+        reply = answer_stepwise(engine, question, videos, self.vocabulary, templates=reading_templates(self.answers),
+                                timeout_s=timeout_s)
+        if reply is None:  # stepwise_question said it reads; it must
+            raise RuntimeError(f"the stepwise mode could not read {question!r} after saying it would")
+        return reply
