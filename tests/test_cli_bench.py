@@ -9,6 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from tacreasoner.cli import app
+from tacreasoner.tasks.bench import load_bench
 
 runner = CliRunner()
 
@@ -30,10 +31,12 @@ def test_baseline_score_and_compare(bench: Path, tmp_path: Path) -> None:
     for kind in ("random", "majority"):
         result = invoke("baseline", "--bench", bench, "--kind", kind, "--out", tmp_path / f"{kind}.jsonl")
         assert result.exit_code == 0, result.output
+    val_items = len(load_bench(bench, "val")[1])
+    assert sum(1 for _ in (tmp_path / "random.jsonl").open()) == val_items != len(load_bench(bench, "test")[1])
     result = invoke("score", tmp_path / "random.jsonl", tmp_path / "majority.jsonl", "--bench", bench,
                     "--out", tmp_path / "report")
     assert result.exit_code == 0, result.output
-    assert "Average" in result.output
+    assert "Average" in result.output and f"scored split: val of {bench}" in result.output
     for name in ("report.md", "report.csv", "report.json", "report.png"):
         assert (tmp_path / "report" / name).stat().st_size > 100
     report = json.loads((tmp_path / "report" / "report.json").read_text())
@@ -41,7 +44,7 @@ def test_baseline_score_and_compare(bench: Path, tmp_path: Path) -> None:
     result = invoke("compare", tmp_path / "random.jsonl", tmp_path / "majority.jsonl", "--bench", bench,
                     "--out", tmp_path / "cmp")
     assert result.exit_code == 0, result.output
-    assert "McNemar" in result.output
+    assert "McNemar" in result.output and f"split: val of {bench}" in result.output
     assert json.loads((tmp_path / "cmp" / "comparison.json").read_text())["overall"]["n"] > 0
 
 

@@ -61,11 +61,16 @@ def test_any_split_name_is_scored_as_test_and_the_choice_is_explained(tmp_path: 
     labels = json.loads((heldout / "labels.json").read_text())
     labels["objects"]["denim"]["split"] = "val"
     (heldout / "labels.json").write_text(json.dumps(labels))
-    with pytest.raises(ValueError, match=r"labels.json: several labelled splits \(heldout, val\) and none is 'test'"):
-        build_folder_bench(heldout, tmp_path / "x")
+    # several labelled splits: val by default (no command reads test objects unless asked)
+    assert build_folder_bench(heldout, tmp_path / "d")[1] == "val"
     with pytest.raises(ValueError, match=r"no labelled object has split 'test'; splits present: heldout, val"):
         build_folder_bench(heldout, tmp_path / "x", split="test")
     assert build_folder_bench(heldout, tmp_path / "v", split="val")[1] == "val"
+    assert build_folder_bench(heldout, tmp_path / "h", split="heldout")[1] == "test"
+    labels["objects"]["denim"]["split"] = "train"
+    (heldout / "labels.json").write_text(json.dumps(labels))
+    with pytest.raises(ValueError, match=r"labels.json: several labelled splits \(heldout, train\) and none is 'val'"):
+        build_folder_bench(heldout, tmp_path / "x")
 
 
 @pytest.mark.parametrize(("damage", "message"), [

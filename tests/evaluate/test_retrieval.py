@@ -198,12 +198,12 @@ def test_evaluate_physiclear_retrieval_asks_the_folder_like_the_training_bench(f
             "--per-task", 1]
     result = _invoke(*args, "--retrieval", augmented)  # encoder and k: as the training bench records them
     assert result.exit_code == 0, result.output
-    info, items = load_bench(out / "bench", "test")
+    info, items = load_bench(out / "bench", "val")  # the folder's val objects by default
     assert info["retrieval"]["k"] == 2 and info["retrieval"]["reference_bench"] == str(augmented.resolve())
     assert items and all(i.question.startswith(PREFIX) for i in items)
     assert all(len(h) == 2 and {x["object"] for x in h} <= set(TRAIN) for i in items
                for h in i.meta["retrieval"]["videos"])
-    assert len((out / "model0" / "predictions" / "test.jsonl").read_text().splitlines()) == len(items)
+    assert len((out / "model0" / "predictions" / "val.jsonl").read_text().splitlines()) == len(items)
 
     _one_line_error(_invoke(*args, "--encoder", augmented), "only go with --retrieval")
     test_only, _ = build_folder_bench(folder, tmp_path / "test_only")

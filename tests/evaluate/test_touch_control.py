@@ -268,7 +268,7 @@ def test_evaluate_touch_flag_keeps_the_modes_side_by_side(model_dir: Path, bench
     for touch in (None, "blank", "shuffled"):
         result = runner.invoke(app, base + ([] if touch is None else ["--touch", touch]))
         assert result.exit_code == 0, result.output
-    for name, touch in (("test", "real"), ("test_blank", "blank"), ("test_shuffled", "shuffled")):
+    for name, touch in (("val", "real"), ("val_blank", "blank"), ("val_shuffled", "shuffled")):  # val by default
         lines = [json.loads(line) for line in (out / "predictions" / f"{name}.jsonl").read_text().splitlines()]
         assert len(lines) == 3 and {line["touch"] for line in lines} == {touch}
     assert (out / "report.md").is_file()
@@ -300,7 +300,7 @@ def test_evaluate_video_cache_is_filled_once_and_answers_as_without_it(model_dir
         "a second model answering the same clips decoded them again"
 
     def answers(name: str) -> list[str]:
-        path = tmp_path / name / "predictions" / "test.jsonl"
+        path = tmp_path / name / "predictions" / "val.jsonl"
         return [json.loads(line)["prediction"] for line in path.read_text().splitlines()]
 
     assert answers("plain") == answers("first") == answers("second")
@@ -316,7 +316,7 @@ def test_evaluate_refuses_to_resume_answers_of_another_model_or_benchmark(model_
     out = tmp_path / "eval"
     base = ["evaluate", "--bench", str(bench), "--out", str(out), "--max-new-tokens", "2"]
     assert runner.invoke(app, [*base, "--model", str(model_dir), "--limit", "2"]).exit_code == 0
-    lines = [json.loads(line) for line in (out / "predictions" / "test.jsonl").read_text().splitlines()]
+    lines = [json.loads(line) for line in (out / "predictions" / "val.jsonl").read_text().splitlines()]
     assert all(line["answered_by"].startswith(f"model={model_dir.resolve()} [") and
                line["answered_by"].endswith(f"; bench={bench.resolve()} v{BENCH_VERSION}") for line in lines)
     other = tmp_path / "other_model"
@@ -326,7 +326,7 @@ def test_evaluate_refuses_to_resume_answers_of_another_model_or_benchmark(model_
     assert "rather than mix the two" in refused.output
     resumed = runner.invoke(app, [*base, "--model", str(model_dir), "--limit", "3"])
     assert resumed.exit_code == 0, resumed.output
-    assert len((out / "predictions" / "test.jsonl").read_text().splitlines()) == 3, "the same model resumes"
+    assert len((out / "predictions" / "val.jsonl").read_text().splitlines()) == 3, "the same model resumes"
 
 
 def test_evaluate_refuses_to_resume_answers_of_another_benchmark_version(model_dir: Path, bench: Path,

@@ -279,9 +279,10 @@ def test_evaluate_and_ask_commands_on_a_trained_model(two_stage_run: Path, input
     result = runner.invoke(app, ["evaluate", "--model", str(model), "--bench", str(inputs["bench"]), "--out",
                                  str(tmp_path / "eval"), "--limit", "6", "--max-new-tokens", "16"])
     assert result.exit_code == 0, result.output
-    preds = (tmp_path / "eval" / "predictions" / "test.jsonl").read_text().splitlines()
+    preds = (tmp_path / "eval" / "predictions" / "val.jsonl").read_text().splitlines()  # val unless asked
     assert len(preds) == 6 and all("prediction" in json.loads(p) for p in preds)
     assert (tmp_path / "eval" / "report.md").is_file() and "Average" in result.output
+    assert f"scored split: val of {inputs['bench']}" in " ".join(result.output.split())
 
     info, items = load_bench(inputs["bench"], "test")
     video = Path(info["video_root"]) / items[0].videos[0].path

@@ -73,7 +73,7 @@ def baseline(
     bench: Bench,
     out: Annotated[Path, typer.Option("--out", help="Predictions JSONL to write.")],
     kind: Annotated[str, typer.Option("--kind", help="random or majority (of the train split's answers).")],
-    split: Split = "test",
+    split: Split = "val",
     seed: Seed = 0,
 ) -> None:
     """Write predictions of a model-free baseline, in the same format a model writes."""
@@ -83,7 +83,7 @@ def baseline(
     _, items = load_bench(bench, split)
     train = load_bench(bench, "train")[1] if kind == "majority" else []
     path = write_predictions(predict(items, kind, train=train, seed=seed), out)
-    console.print(f"{len(items)} {kind} predictions → {path}")
+    console.print(f"{len(items)} {kind} predictions of split {split} → {path}")
 
 
 @app.command()
@@ -91,7 +91,7 @@ def baseline(
 def score(
     predictions: Annotated[list[Path], typer.Argument(help="Prediction JSONL file(s); several = several seeds.")],
     bench: Bench,
-    split: Split = "test",
+    split: Split = "val",
     mode: Mode = "strict",
     out: Annotated[Path | None, typer.Option("--out", help="Report directory (default: next to the "
                                                            "first predictions file).")] = None,
@@ -104,7 +104,7 @@ def score(
     out_dir = out or predictions[0].parent / f"{predictions[0].stem}_report"
     report = evaluate(items, predictions, mode, out_dir)
     console.print(report.to_markdown())
-    console.print(f"Report files in {out_dir}")
+    console.print(f"scored split: {split} of {bench}; report files in {out_dir}")
 
 
 @app.command()
@@ -113,7 +113,7 @@ def compare(
     a: Annotated[Path, typer.Argument(help="Predictions JSONL of model A.")],
     b: Annotated[Path, typer.Argument(help="Predictions JSONL of model B.")],
     bench: Bench,
-    split: Split = "test",
+    split: Split = "val",
     mode: Mode = "strict",
     out: Annotated[Path | None, typer.Option("--out", help="Directory for comparison.md/json.")] = None,
 ) -> None:
@@ -121,6 +121,7 @@ def compare(
     from tacreasoner.evaluate.report import compare_prediction_files, write_comparison
 
     comparison = compare_prediction_files(a, b, bench, split, mode)
+    console.print(f"split: {split} of {bench}")
     console.print(comparison.to_markdown())
     if out is not None:
         paths = write_comparison(comparison, out)

@@ -95,7 +95,7 @@ def evaluate_cmd(
                                                         "predictions).")],
     bench: Bench,
     out: Annotated[Path, typer.Option("--out", help="Report directory (predictions/, report.md, plots).")],
-    split: Split = "test",
+    split: Split = "val",
     mode: Mode = "strict",
     batch_size: Annotated[int, typer.Option("--batch-size", help="Prompts per generate call.")] = 32,
     max_new_tokens: Annotated[int, typer.Option("--max-new-tokens", help="Longest reply (room for TouchCoT "
@@ -127,7 +127,7 @@ def evaluate_cmd(
     console.print(report.to_markdown())
     if (warning := cut_warning(preds, max_new_tokens)) is not None:
         console.print(warning)
-    console.print(f"report: {report_dir / 'report.md'}; predictions: {preds}")
+    console.print(f"scored split: {split} of {bench}; report: {report_dir / 'report.md'}; predictions: {preds}")
 
 
 @app.command("evaluate-physiclear")
@@ -138,8 +138,9 @@ def evaluate_physiclear_cmd(
     data: Annotated[Path, typer.Option("--data", help="A PhysiCLeAR-shaped folder: labels.json + videos/, any split "
                                                       "names (e.g. only 'test').")],
     out: Annotated[Path, typer.Option("--out", help="Output directory: bench/, predictions/, report.md, octopi.md.")],
-    split: Annotated[str | None, typer.Option("--split", help="The labels.json split to score (default: test, or "
-                                                              "the only labelled split).", show_default=False)] = None,
+    split: Annotated[str | None, typer.Option("--split", help="The labels.json split to score (default: val, or "
+                                                              "the only labelled split: a folder of test objects "
+                                                              "alone is scored on them).", show_default=False)] = None,
     seed: Annotated[int, typer.Option("--seed", help="Seed of the items built from the folder.")] = 0,
     per_task: Annotated[int | None, typer.Option("--per-task", help="Items per task (default: each clip once).",
                                                  show_default=False)] = None,
@@ -183,6 +184,7 @@ def evaluate_physiclear_cmd(
                                  batch_size=batch_size, max_new_tokens=max_new_tokens, retrieval=retrieval,
                                  encoder=encoder, retrieval_k=retrieval_k, wording=wording, answers=answers,
                                  progress=lambda label: functools.partial(bars, label), say=console.print)
+    console.print(f"scored split: {result.split} of {data}")
     console.print(f"{out / 'bench'}: {sum(result.counts.values())} items over {result.objects} objects "
                   f"({', '.join(f'{t} {n}' for t, n in result.counts.items())})")
     console.print(result.markdown)

@@ -57,7 +57,8 @@ def evaluate_folder(models: Sequence[Path], data: Path, out: Path, *, split: str
                     retrieval_k: int | None = None, wording: str = "benchmark", answers: str = RECOMMENDED_ANSWERS,
                     progress: Callable[[str], Callable[[int, int], None] | None] | None = None,
                     say: Callable[[str], None] = print) -> FolderEvaluation:
-    """Every model answers the folder's ``split`` (default: test, or the only labelled split); see the module doc.
+    """Every model answers the folder's ``split`` (default: val, or the only labelled split, as in a folder of test
+    objects alone); see the module doc.
     ``answers``: how questions over several objects are answered (``evaluate.predict.ANSWER_MODES``).
     ``progress(label)`` gives a per-model progress callback."""
     from tacreasoner.evaluate.predict import (

@@ -239,7 +239,7 @@ def build_bench(source: str, data: str | Path, out_dir: str | Path, *, seed: int
 def build_folder_bench(data: str | Path, out_dir: str | Path, *, split: str | None = None, seed: int = 0,
                        per_task: int | None = None) -> tuple[BenchSummary, str]:
     """A benchmark of one split of a PhysiCLeAR-shaped folder (``labels.json`` + ``videos/``): the objects whose
-    ``split`` is ``split`` (any name; default: ``test`` if present, else the only labelled split) become the
+    ``split`` is ``split`` (any name; default: ``val`` if present, else the only labelled split) become the
     benchmark's evaluation split, items built deterministically for ``seed``. Returns the summary and the
     benchmark's split name (``val``/``test`` as in the folder, ``test`` for any other name).
 
@@ -254,11 +254,11 @@ def build_folder_bench(data: str | Path, out_dir: str | Path, *, split: str | No
     present = sorted({c.split for c in clips})
     if not present:
         raise ValueError(f"{labels}: no object with hardness/roughness/bumpiness labels")
-    if split is None:
-        if "test" not in present and len(present) > 1:
-            raise ValueError(f"{labels}: several labelled splits ({', '.join(present)}) and none is 'test': "
+    if split is None:  # val when there is one (no command reads test unless asked), else the only labelled split
+        if "val" not in present and len(present) > 1:
+            raise ValueError(f"{labels}: several labelled splits ({', '.join(present)}) and none is 'val': "
                              "choose one with --split")
-        split = "test" if "test" in present else present[0]
+        split = "val" if "val" in present else present[0]
     wanted = split.strip().lower()
     chosen = [c for c in clips if c.split == wanted]
     if not chosen:
