@@ -5,6 +5,7 @@ Octopi-shaped table and bad folders; and one real GelSight Mini clip where ../sh
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -130,6 +131,27 @@ def test_evaluate_physiclear_writes_the_octopi_table(folder: Path, model_dir: Pa
 
     result = runner.invoke(app, [*args[:5], "--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "eval2")])
     assert result.exit_code == 2 and "labels.json" in result.output and "Traceback" not in result.output
+
+
+def test_models_added_to_a_scored_folder_are_scored_beside_the_first(folder: Path, model_dir: Path,
+                                                                     tmp_path: Path) -> None:
+    """A recipe asked for more seeds in the same folder scores them all, keeping the first model's answers."""
+    from tacreasoner.cli import app
+
+    runner = CliRunner()
+    out = tmp_path / "eval"
+    common = ["--data", str(folder), "--out", str(out), "--max-new-tokens", "2", "--per-task", "2"]
+    first = runner.invoke(app, ["evaluate-physiclear", "--model", str(model_dir), *common])
+    assert first.exit_code == 0, first.output
+    kept = (out / "model0" / "predictions" / "test.jsonl").stat().st_mtime_ns
+    more = runner.invoke(app, ["evaluate-physiclear", "--model", str(model_dir), "--model", str(model_dir), *common])
+    assert more.exit_code == 0, more.output
+    assert json.loads((out / "octopi.json").read_text())["table"]["hardness"]["runs"] == 2
+    assert (out / "model0" / "predictions" / "test.jsonl").stat().st_mtime_ns == kept, "model 0 was answered again"
+    other = tmp_path / "other_model"
+    shutil.copytree(model_dir, other)
+    result = runner.invoke(app, ["evaluate-physiclear", "--model", str(other), "--model", str(model_dir), *common])
+    assert result.exit_code == 2 and "models changed" in result.output, result.output
 
 
 def test_octopi_table_leaves_absent_tasks_empty() -> None:

@@ -64,6 +64,15 @@ def test_the_recipe_runs_end_to_end_and_resumes(physiclear_folder: Path, make_ph
                        encoder={"size": "48x64", "frames": 4}, say=said.append)
     assert all("done before" in line for line in said if line.endswith(("done before", "...")))
     assert not any(line.endswith("...") for line in said) and again["seconds"] == record["seconds"]
+    # more seeds in the same folder: the new seed trains, and val is scored over both (the first's answers kept)
+    kept = (tmp_path / "run" / "eval" / "val_stepwise-vote" / "model0" / "predictions" / "val.jsonl").read_text()
+    more = run_recipe(physiclear_folder, tmp_path / "run", seeds=(0, 1), llm=llm, overrides=overrides,
+                      encoder={"size": "48x64", "frames": 4}, say=said.append)
+    assert more["results"]["val_benchmark"]["hardness"]["n"] == 8
+    scored = json.loads((tmp_path / "run" / "eval" / "val_stepwise-vote" / "octopi.json").read_text())
+    assert len(scored["models"]) == 2 and scored["table"]["hardness"]["runs"] == 2
+    assert (tmp_path / "run" / "eval" / "val_stepwise-vote" / "model0" / "predictions" / "val.jsonl").read_text() \
+        == kept
     # the maintainers' path: the recipe's model scored by the CLI on a folder that holds only a test split
     from typer.testing import CliRunner
 

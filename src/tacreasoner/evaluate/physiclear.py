@@ -39,11 +39,15 @@ class FolderEvaluation:
 
 def same_settings_as_before(out: Path, settings: dict) -> None:
     """Answers resume by item id, and ids do not change with retrieval or another model: refuse an ``out`` that was
-    answered with other settings rather than silently mixing the two runs' answers."""
+    answered with other settings rather than silently mixing the two runs' answers. More models after the same
+    first ones (seeds added to a recipe) is not a change: model k answers into ``model<k>/`` as before."""
     path = out / "settings.json"
     if path.is_file():
         before = json.loads(path.read_text())
-        changed = [key for key in settings if before.get(key) != settings[key]]
+        models_before = before.get("models") or []
+        added_models = settings.get("models", [])[:len(models_before)] == models_before
+        changed = [key for key in settings if before.get(key) != settings[key]
+                   and not (key == "models" and added_models)]
         if changed:
             raise ValueError(f"{out} holds answers made with other settings ({', '.join(changed)} changed; see "
                              f"{path}): give a fresh --out")
