@@ -7,6 +7,7 @@ import json
 import math
 import os
 import platform
+import re
 import shlex
 import shutil
 import sys
@@ -15,6 +16,18 @@ from pathlib import Path
 import numpy as np
 
 RESULTS = Path(__file__).resolve().parent / "results"
+REPO = RESULTS.parents[1]
+"""The checkout these scripts run from: paths under it are written repository-relative."""
+
+
+def portable(text: str, repo: Path = REPO) -> str:
+    """``text`` with this machine's absolute paths of the checkout (and of ``../shared`` beside it) written relative
+    to the repository root, so a result file reads the same on any machine."""
+    for path, short in ((repo.parent / "shared", "../shared"), (repo, ".")):
+        whole = re.escape(str(path)) + r"(?![\w.-])"  # a whole path component: /a/main, never /a/main2
+        text = re.sub(whole + "/", "" if short == "." else f"{short}/", text)
+        text = re.sub(whole, short, text)
+    return text
 
 
 def machine() -> dict:
@@ -54,8 +67,8 @@ def write_results(name: str, payload: dict, markdown: str, directory: Path | Non
     directory = RESULTS if directory is None else Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     json_path, md_path = directory / f"{name}.json", directory / f"{name}.md"
-    json_path.write_text(json.dumps(payload, indent=2) + "\n")
-    md_path.write_text(markdown)
+    json_path.write_text(portable(json.dumps(payload, indent=2)) + "\n")
+    md_path.write_text(portable(markdown))
     return json_path, md_path
 
 

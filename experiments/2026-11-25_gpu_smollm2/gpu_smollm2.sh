@@ -81,7 +81,7 @@ setup)
     nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv
     python3 -c "import torch,transformers,peft,accelerate,av;print('torch',torch.__version__,torch.cuda.get_device_name(0),'transformers',transformers.__version__,'peft',peft.__version__,'accelerate',accelerate.__version__,'av',av.__version__)"
     mkdir -p $W/quickstart $W/logs && cp -r .gpu/run/encoder $W/quickstart/ && tar xzf .gpu/run/data.tgz -C $W/quickstart
-    sed -i "s#\"/work/main/runs/quickstart/sim\"#\"$W/quickstart/sim\"#g" $W/quickstart/bench/bench.json
+    sed -i "s#\"runs/quickstart/sim\"#\"$W/quickstart/sim\"#g" $W/quickstart/bench/bench.json
     $TR simulate --out $W/quickstart/sim --workers 14 2>&1 | tail -1
     el "setup done"
     ;;

@@ -1,9 +1,9 @@
 #!/bin/bash
 # Reordered (20:05): settle the 'para' recipe candidate before the ablations (which must run on the final recipe).
-cd /work/main
+cd .
 until [ -f runs/dyntac_cpu/eval/rec.seed1/val_heldout/report.json ]; do sleep 10; done
 sleep 5
-export Q=/work/fresh46/runs/quickstart OUT=runs/dyntac_cpu TR="env PYTHONPATH=/work/wt_seed1/src /work/main/.venv/bin/tacreasoner"
+export Q=runs/quickstart OUT=runs/dyntac_cpu TR="env PYTHONPATH=src .venv/bin/tacreasoner"
 HELDOUT=1 JOBS="para:1" bash runs/dyntac_cpu/dyntac_cpu.sh
 HELDOUT=1 JOBS="rec:2 para:2" bash runs/dyntac_cpu/dyntac_cpu.sh
 echo QUEUE2 DONE

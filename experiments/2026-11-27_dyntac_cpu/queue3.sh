@@ -2,10 +2,10 @@
 # 2026-11-27 session 8: the candidate's (para) seeds on test once (chosen on val by the pre-set rule), then the
 # TouchCoT ablation on the template-wording recipe, paired with rec seeds trained here.
 set -u
-cd /work/main
-TR="env PYTHONPATH=/work/wt_cot/src /work/main/.venv/bin/tacreasoner"
+cd .
+TR="env PYTHONPATH=src .venv/bin/tacreasoner"
 E=runs/dyntac_cpu/eval
-Q=/work/fresh46/runs/quickstart
+Q=runs/quickstart
 for s in 0 1 2; do
     [ -e "$E/para.seed$s/test/report.json" ] && continue
     echo "[$(date -u +%H:%M:%S)] para seed $s: answering test"
@@ -14,5 +14,5 @@ for s in 0 1 2; do
         > runs/dyntac_cpu/logs/para.seed$s.test.log 2>&1 || { echo FAILED; exit 1; }
 done
 echo "[$(date -u +%H:%M:%S)] test scored"
-PATH=/work/main/.venv/bin:$PATH TR="$TR" Q=$Q OUT=runs/dyntac_cpu JOBS="cot:0 cot:1 cot:2" \
-    EXTRA="--set data.paraphrases=false --set runtime.threads=2" bash /work/wt_cot/benchmarks/dyntac_cpu.sh
+PATH=.venv/bin:$PATH TR="$TR" Q=$Q OUT=runs/dyntac_cpu JOBS="cot:0 cot:1 cot:2" \
+    EXTRA="--set data.paraphrases=false --set runtime.threads=2" bash benchmarks/dyntac_cpu.sh

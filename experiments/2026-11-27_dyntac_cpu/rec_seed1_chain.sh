@@ -1,10 +1,10 @@
 #!/bin/bash
-# Packed vs padded, seed 1, same CPU, same data (fresh46's run folder), code at 39ac1c8 (worktree /work/wt_seed1).
+# Packed vs padded, seed 1, same CPU, same data (fresh46's run folder), code at 39ac1c8 (worktree .).
 set -e
-cd /work/main
-export PYTHONPATH=/work/wt_seed1/src
+cd .
+export PYTHONPATH=src
 TR=.venv/bin/tacreasoner
-W=/work/fresh46/runs/quickstart
+W=runs/quickstart
 for v in packed padded; do
   O=runs/pair1/$v
   extra=""

@@ -1,9 +1,9 @@
 #!/bin/bash
 # The quickstart recipe, seed 0, as trained before packing (padded batches, sdpa), on fresh46's data; then val.
 set -e
-cd /work/main
+cd .
 TR=.venv/bin/tacreasoner
-W=/work/fresh46/runs/quickstart
+W=runs/quickstart
 O=runs/padded/seed0
 for st in 1 2; do
   [ -f $O/stage$st/run.done ] && continue

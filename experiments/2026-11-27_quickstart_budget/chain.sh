@@ -1,7 +1,7 @@
 #!/bin/bash
 # chain NAME SEED SPLITS... ; env SETS holds --set options
 set -e
-cd /work/main
+cd .
 N=$1; S=$2; shift 2
 TR=.venv/bin/tacreasoner
 W=runs/qs

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Seconds to answer the same val items in float32 and in bfloat16 (`tacreasoner evaluate --dtype`), alternated, on a
-# quiet machine. Usage: Q=/work/fresh47/runs/quickstart N=390 ROUNDS=2 bash eval_dtype_time.sh > times.txt
+# quiet machine. Usage: Q=runs/quickstart N=390 ROUNDS=2 bash eval_dtype_time.sh > times.txt
 set -eu
 Q=${Q:-runs/quickstart}
 N=${N:-390}

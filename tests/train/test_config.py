@@ -91,7 +91,8 @@ def test_an_unknown_key_error_points_at_the_key_itself(tmp_path, text, line) -> 
     ("seed: 0\ndata:\n  repeat:\n    OSC: 2.5\n", ["data.repeat.OSC", "2.5"]),
     ("seed: 0\ndata:\n  repeat: [OSC]\n", ["data.repeat", "mapping"]),
     ("seed: 0\ndata:\n  length_group_batches: 0\n", ["data.length_group_batches", "at least 1"]),
-    ("seed: 0\ndata:\n  extra_benches: [b]\n", ["data.extra_benches", "plain or compact answers only"]),
+    ("seed: 0\ndata:\n  stage2_data: touchcot\n  extra_benches: [b]\n",
+     ["data.extra_benches", "plain or compact answers only"]),
     ("seed: 0\ndata:\n  extra_benches: b\n", ["data.extra_benches", "list of strings", "'b'"]),
     ("seed: 0\ndata:\n  stage2_data: plain\n  extra_benches: [b]\nmodel:\n  encoder:\n    cross_video: 3\n",
      ["data.extra_benches", "read-out heads"]),
@@ -375,10 +376,21 @@ def test_the_heads_and_physiclear_variants_change_only_what_they_say() -> None:
     encoder_changes = {k for k in {*cpu["model"]["encoder"], *real["model"]["encoder"]}
                        if cpu["model"]["encoder"].get(k) != real["model"]["encoder"].get(k)}
     assert encoder_changes <= {"standardize_appearance"}
-    assert {k for k in cpu["data"] if cpu["data"][k] != real["data"][k]} == {"bench", "touchcot", "video_cache",
-                                                                               "paraphrases", "group_by_length"}
+    assert {k for k in cpu["data"] if cpu["data"][k] != real["data"][k]} == {"bench", "video_cache", "paraphrases",
+                                                                               "group_by_length"}
     assert real["data"]["paraphrases"] is True and real["data"]["group_by_length"] is True
     assert real["data"]["bench"] == "runs/physiclear/bench" and real["data"]["touchcot"] is None
+
+
+def test_data_settings_default_to_what_the_recommended_recipes_train() -> None:
+    """A config that leaves data.stage2_data out trains plain answers, as the quickstart and the PhysiCLeAR recipe
+    do (both chosen on val), and needs no TouchCoT file."""
+    from tacreasoner.train.config import DataSettings
+
+    defaults = DataSettings()
+    assert defaults.stage2_data == "plain" and defaults.touchcot is None
+    for name in ("quickstart-smollm2-cpu", "physiclear-smollm2-cpu"):
+        assert load_train_config(config_file(name)).data.stage2_data == defaults.stage2_data
 
 
 

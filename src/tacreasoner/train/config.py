@@ -78,10 +78,11 @@ class DataSettings:
     """More benchmark directories whose train splits join ``bench``'s, with plain answers in both stages (e.g.
     simulated clips asked in PhysiCLeAR's words beside PhysiCLeAR: ``build-bench --source sim --vocabulary
     physiclear``). Each must use ``bench``'s vocabulary; not with TouchCoT or the read-out heads."""
-    touchcot: str | None = "runs/quickstart/touchcot/touchcot/touchcot_train.jsonl"
-    """TouchCoT training JSONL (``build-cot``) for Stage II."""
-    stage2_data: str = "touchcot"
-    """touchcot | plain (gold answers without reasoning, from the benchmark's train split) | compact (each
+    touchcot: str | None = None
+    """TouchCoT training JSONL (``build-cot``) for Stage II; needed only with ``stage2_data: touchcot``."""
+    stage2_data: str = "plain"
+    """plain (gold answers without reasoning, from the benchmark's train split: what the recommended recipes train,
+    chosen on val) | touchcot (the paper's reasoning, from ``touchcot``) | compact (each
     multi-object item's videos described in level words, then the step that concludes: ``cot.compact``; no
     TouchCoT file needed)."""
     knowledge: str = "none"
