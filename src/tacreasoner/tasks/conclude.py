@@ -30,7 +30,8 @@ from tacreasoner.tasks.schema import PC_RELATIONS, PLACEHOLDER, QAItem
 from tacreasoner.tasks.scoring import TSA_LETTERS, _find_phrases, score_item
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
-__all__ = ["REASONED_TASKS", "Consistency", "Levels", "asked", "consistency", "implied_answers", "item_levels",
+__all__ = ["PROPERTY_WORDS", "REASONED_TASKS", "Consistency", "Levels", "asked", "asked_properties", "consistency",
+           "implied_answers", "item_levels",
            "labelled_levels", "needed_attributes", "option_levels", "parsed_answer", "read_levels", "read_needs",
            "stated_levels"]
 
@@ -70,6 +71,42 @@ def asked(task: str, question: str, vocabulary: str) -> dict[str, Any] | None:
     if task == "SFD":
         out["kind"] = "which" if re.search(r"\b(which|pick)\b", text, re.IGNORECASE) else "yesno"
     return out
+
+
+PROPERTY_WORDS: dict[str, tuple[str, ...]] = {
+    "hardness": ("hard", "soft", "firm", "stiff", "rigid", "squish", "squash", "spongy", "yield", "give way",
+                 "compress", "squeez", "pliab", "mushy", "solid", "tough", "deform"),
+    "roughness": ("rough", "smooth", "coarse", "grit", "grain", "textur", "sandpaper", "scratchy", "abrasiv",
+                  "polish", "silk"),
+    "bumpiness": ("bump", "lump", "ridge", "flat", "uneven", "knob", "nubb", "bobbl", "raised", "dimpl", "pimpl",
+                  "stud"),
+    "protrusion": ("protru", "stick out", "sticks out", "bump", "lump", "ridge", "flat", "uneven", "knob", "raised"),
+    "elasticity": ("elastic", "spring", "bounc", "rebound", "stretch", "resilien"),
+    "friction": ("friction", "slip", "grip", "sticky", "slick", "slid", "tacky", "traction"),
+}
+"""Words (stems: a word starting with one counts) a person uses for each property, from general English, written
+before any evaluation wording was run through it (experiments/2026-11-29_read_single_clip/criteria.md). Where a
+vocabulary has no roughness, its friction takes the roughness words (VTV-150K words friction as rough/smooth)."""
+_WHOLE_OBJECT = re.compile(r"\b(feels?\s+like|profile|properties|describe\s+(what|how|this|the)|how\s+does\s+(it|this)"
+                           r"\s+(\w+\s+)?feel|what\s+do\s+you\s+feel)\b", re.IGNORECASE)
+
+
+def asked_properties(question: str, vocabulary: str) -> list[str] | None:
+    """The properties a question about one clip asks for, read from its words (:data:`PROPERTY_WORDS`), in
+    vocabulary order: the ones it names, or every one for a question about how the object feels as a whole ("What
+    does this feel like?"); None when it asks about none of them ("Is this a real orange?")."""
+    text = question.replace(PLACEHOLDER, " ")
+    vocab = get_vocabulary(vocabulary)
+    found = []
+    for attribute in vocab:
+        words = (*PROPERTY_WORDS.get(attribute, ()), attribute)
+        if attribute == "friction" and "roughness" not in vocab:
+            words += PROPERTY_WORDS["roughness"]
+        if re.search(r"\b(" + "|".join(re.escape(w) for w in words) + ")", text, re.IGNORECASE):
+            found.append(attribute)
+    if found:
+        return found
+    return list(vocab) if _WHOLE_OBJECT.search(text) else None
 
 
 def needed_attributes(item: QAItem) -> list[str]:
