@@ -30,7 +30,8 @@ def bench(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> 
 
 
 def heldout_texts() -> set[str]:
-    return {normalise(p.template.text) for kind in load_paraphrases("heldout").values() for p in kind}
+    return {normalise(p.template.text) for wording in ("heldout", "heldout2")
+            for kind in load_paraphrases(wording).values() for p in kind}
 
 
 def test_heldout_wordings_are_never_training_wordings() -> None:
@@ -40,6 +41,9 @@ def test_heldout_wordings_are_never_training_wordings() -> None:
     assert heldout_texts() and not heldout_texts() & trained
     # the user's question from the issue is a held-out wording, so answering it is generalisation, not recall
     assert normalise("<tactile>\nIs this object soft or hard?") in heldout_texts()
+    first = {normalise(p.template.text) for kind in load_paraphrases("heldout").values() for p in kind}
+    second = {normalise(p.template.text) for kind in load_paraphrases("heldout2").values() for p in kind}
+    assert second and not first & second, "the second held-out set repeats none of the first"
 
 
 def test_a_heldout_wording_copied_into_training_is_refused(tmp_path: Path) -> None:
@@ -95,7 +99,8 @@ def test_training_examples_never_hold_a_heldout_wording(bench: Path) -> None:
     assert all(heldout_wording_of(e.question) is None for e in mixed)
     # the check would see one: the val split re-worded is caught on every item
     _, val = load_bench(bench, "val")
-    assert all(heldout_wording_of(i.question) is not None for i in reword_items(val, "heldout"))
+    assert all(heldout_wording_of(i.question) is not None for wording in ("heldout", "heldout2")
+               for i in reword_items(val, wording))
     assert any(e.target == "<answer>B</answer>" for e in mixed)  # a lettered SFD/SOI answer
     assert len({e.question for e in mixed}) > 1.5 * len({e.question for e in plain})
     stage1 = load_examples(1, bench, paraphrases=True)

@@ -56,12 +56,17 @@ def paraphrase_bench_cmd(
     bench: Annotated[Path, typer.Option("--bench", help="A benchmark directory (build-bench).")],
     out: Annotated[Path, typer.Option("--out", help="The new benchmark directory.")],
     splits: Annotated[str, typer.Option("--splits", help="Comma-separated evaluation splits to re-word.")] = "val,test",
+    wording: Annotated[str, typer.Option("--wording", help="heldout, or heldout2 (a second set, written later: "
+                                                          "tasks/paraphrases/heldout2.yaml).")] = "heldout",
 ) -> None:
     """A copy of a benchmark's evaluation splits asked in held-out wordings (never used in training), to score how a
     model answers questions worded as a user would: `tacreasoner evaluate --bench OUT`."""
     from tacreasoner.tasks.bench import reword_bench
+    from tacreasoner.tasks.paraphrase import HELDOUT_WORDINGS
 
-    counts = reword_bench(bench, out, wording="heldout", splits=comma_list(splits))
+    if wording not in HELDOUT_WORDINGS:
+        raise ValueError(f"--wording must be one of {', '.join(HELDOUT_WORDINGS)}, got {wording!r}")
+    counts = reword_bench(bench, out, wording=wording, splits=comma_list(splits))
     for split, tasks in counts.items():
         console.print(f"{split}: {sum(tasks.values())} items ({', '.join(f'{t} {n}' for t, n in tasks.items())})")
     console.print(f"held-out wordings: {out}")

@@ -160,7 +160,8 @@ def evaluate_physiclear_cmd(
                               "3).", show_default=False)] = None,
     wording: Annotated[str, typer.Option(
         "--wording", help="benchmark: the benchmark's question templates; heldout: the same items asked in wordings "
-                          "no training used (tasks/paraphrases/heldout.yaml; tasks without one are left out).")
+                          "no training used (tasks/paraphrases/heldout.yaml; tasks without one are left out); "
+                          "heldout2: a second such set (heldout2.yaml).")
                        ] = "benchmark",
     answers: Answers = "stepwise-vote",
 ) -> None:

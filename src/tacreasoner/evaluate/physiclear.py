@@ -19,7 +19,7 @@ from tacreasoner.evaluate.octopi import octopi_markdown, octopi_table
 
 __all__ = ["RECOMMENDED_ANSWERS", "WORDINGS", "FolderEvaluation", "evaluate_folder", "same_settings_as_before"]
 
-WORDINGS = ("benchmark", "heldout")
+WORDINGS = ("benchmark", "heldout", "heldout2")
 RECOMMENDED_ANSWERS = "stepwise-vote"
 """How the recommended PhysiCLeAR model answers questions over several objects: each video read in a pass of its own,
 in every single-clip wording with the majority level, and the conclusion drawn by the rule (``evaluate/stepwise.py``).
@@ -88,8 +88,8 @@ def evaluate_folder(models: Sequence[Path], data: Path, out: Path, *, split: str
                                   "encoder": None if encoder is None else str(encoder), "retrieval_k": retrieval_k,
                                   "wording": wording} | ({} if answers == "direct" else {"answers": answers}))
     summary, name = build_folder_bench(data, out / "bench", split=split, seed=seed, per_task=per_task)
-    if wording == "heldout":
-        summary.counts.update(reword_bench(summary.out_dir, wording="heldout", splits=(name,)))
+    if wording != "benchmark":
+        summary.counts.update(reword_bench(summary.out_dir, wording=wording, splits=(name,)))
     if retrieval is not None and encoder is not None and retrieval_k is not None:
         from tacreasoner.evaluate.retrieval import augment_bench
 
@@ -112,7 +112,7 @@ def evaluate_folder(models: Sequence[Path], data: Path, out: Path, *, split: str
     report = evaluate(items, paths, mode, out)
     folder_split = json.loads((summary.out_dir / "bench.json").read_text())["folder_split"]
     table = octopi_table(report)
-    label = ", ".join(str(m) for m in models) + ("" if wording == "benchmark" else " (held-out wordings)") + \
+    label = ", ".join(str(m) for m in models) + ("" if wording == "benchmark" else f" ({wording} wordings)") + \
         ("" if answers == "direct" else f" ({answers} answers)")
     text = octopi_markdown(table, label=label, split=f"{data} · {folder_split}")
     (out / "octopi.md").write_text(f"# Octopi's PhysiCLeAR table\n\n{text}")

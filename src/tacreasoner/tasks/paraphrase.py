@@ -26,11 +26,14 @@ from tacreasoner.tasks.schema import ORDINALS, QAItem
 from tacreasoner.tasks.templating import KINDS, Template, TemplateError, _check_slots, load_templates
 from tacreasoner.yamlfile import line_of, read_yaml
 
-__all__ = ["PARAPHRASE_DIR", "WORDINGS", "Paraphrase", "check_disjoint", "heldout_wording_of", "load_paraphrases",
-           "normalise", "reword", "reword_items"]
+__all__ = ["HELDOUT_WORDINGS", "PARAPHRASE_DIR", "WORDINGS", "Paraphrase", "check_disjoint", "heldout_wording_of",
+           "load_paraphrases", "normalise", "reword", "reword_items"]
 
 PARAPHRASE_DIR = Path(__file__).parent / "paraphrases"
-WORDINGS = ("train", "heldout")
+WORDINGS = ("train", "heldout", "heldout2")
+HELDOUT_WORDINGS = ("heldout", "heldout2")
+"""Held-out sets: never trained on. ``heldout2`` (2026-11-29) was written after the stepwise modes' property lexicon
+(``tasks.conclude.asked_properties``) and never run through it before it was measured."""
 FIELDS = frozenset({"id", "text", "attribute", "answer"})
 LETTER_TASKS = ("SFD", "SOI")
 """Tasks whose ``the first/second/third object`` answers a lettered wording turns into ``A``/``B``/``C``."""
@@ -81,16 +84,16 @@ def _parse(path: Path) -> dict[str, tuple[Paraphrase, ...]]:
 
 @lru_cache(maxsize=4)
 def load_paraphrases(wording: str, directory: str | None = None) -> Mapping[str, tuple[Paraphrase, ...]]:
-    """The ``train`` or ``heldout`` wordings by template kind."""
+    """The ``train``, ``heldout`` or ``heldout2`` wordings by template kind."""
     if wording not in WORDINGS:
         raise ValueError(f"unknown wording set {wording!r}; choose from {', '.join(WORDINGS)}")
     return _parse(Path(directory or PARAPHRASE_DIR) / f"{wording}.yaml")
 
 
 def heldout_wording_of(question: str) -> str | None:
-    """The id of the held-out wording ``question`` is asked in (slots filled with anything), else None: how a test
-    proves a training question never uses one."""
-    for kind in load_paraphrases("heldout").values():
+    """The id of the held-out wording (of either set) ``question`` is asked in (slots filled with anything), else
+    None: how a test proves a training question never uses one."""
+    for kind in (k for wording in HELDOUT_WORDINGS for k in load_paraphrases(wording).values()):
         for p in kind:
             if _pattern(p.template.text).fullmatch(question.strip()):
                 return p.template.id
@@ -114,12 +117,16 @@ def check_disjoint(directory: str | None = None) -> None:
         seen.setdefault(normalise(p.template.text), p.template.where)
     ids = {t.id for kind in load_templates().values() for t in kind} | \
           {p.template.id for kind in load_paraphrases("train", directory).values() for p in kind}
-    for p in (p for kind in load_paraphrases("heldout", directory).values() for p in kind):
-        if normalise(p.template.text) in seen:
-            raise TemplateError(f"{p.template.where}: the held-out wording is also used for training "
-                                f"({seen[normalise(p.template.text)]})")
-        if p.template.id in ids:
-            raise TemplateError(f"{p.template.where}: id {p.template.id!r} is also a training wording's")
+    for wording in HELDOUT_WORDINGS:  # each set apart from training, and the second apart from the first
+        for p in (p for kind in load_paraphrases(wording, directory).values() for p in kind):
+            if normalise(p.template.text) in seen:
+                raise TemplateError(f"{p.template.where}: the held-out wording is also used for training or in "
+                                    f"another held-out set ({seen[normalise(p.template.text)]})")
+            if p.template.id in ids:
+                raise TemplateError(f"{p.template.where}: id {p.template.id!r} is also another wording's")
+        for p in (p for kind in load_paraphrases(wording, directory).values() for p in kind):
+            seen[normalise(p.template.text)] = p.template.where
+            ids.add(p.template.id)
 
 
 @lru_cache(maxsize=1)
