@@ -274,3 +274,53 @@ def test_stepwise_vote_reads_each_clip_in_every_wording(answered: dict[str, Any]
     assert len([k for k in steps if k.startswith("read")]) == len(VOTE_TEMPLATES) * len(readings)
     lines = [json.loads(line) for line in out.read_text().splitlines()]
     assert {r["answers"] for r in lines if "answers" in r} == {"stepwise-vote"}
+
+
+def test_a_one_clip_question_in_untrained_words_is_answered_from_its_reading() -> None:
+    from tacreasoner.evaluate.stepwise import VOTE_TEMPLATES, free_question_view
+    from tacreasoner.tasks.paraphrase import reword
+    from tacreasoner.tasks.scoring import score_item
+
+    tfa = build_items(make_clips(n_objects=12, repeats=2),
+                      tasks=["TFA-hardness", "TFA-roughness", "TFA-bumpiness", "TFA-combined"],
+                      vocabulary="physiclear", split="val", seed=0)
+    asked_in_benchmark_words = next(i for i in tfa if i.task == "TFA-hardness")
+    assert question_view(asked_in_benchmark_words, single_clip=True) is None, "trained wordings stay one pass"
+    vocab = get_vocabulary("physiclear")
+    for item in tfa:
+        worded = reword(item, "heldout2")
+        if worded is None:
+            continue
+        view = question_view(worded, single_clip=True)
+        if view is None:  # its words name no property the lexicon knows ("Would this dent …"): one pass
+            continue
+        assert view.answer == "?" and "level" not in view.gold and "levels" not in view.gold
+        keys = [(f"/v/{worded.videos[0].clip_id}.mp4", None, None)]
+        levels = item.gold.get("levels") or {item.gold["attribute"]: item.gold["level"]}
+        replies = {s.key: f"<answer>{vocab[s.key.split('|')[1]].phrase(levels.get(s.key.split('|')[1], 1))}"
+                   f"</answer>" for s in steps_for(view, keys, VOTE_TEMPLATES)}
+        composed = conclude(view, keys, replies, VOTE_TEMPLATES)
+        assert composed.reply.startswith("<think>Video 1: ") and not composed.guessed
+        assert score_item(worded, composed.reply).correct, (worded.question, composed.reply)
+    # a person's question: read when its words name a property, in both vocabularies; else left to one pass
+    firm = free_question_view("How firm does this feel? <tactile>", 1, "physiclear", single_clip=True)
+    assert firm is not None and firm.task == "TFA-hardness" and firm.gold == {"attributes": ["hardness"]}
+    grip = free_question_view("<tactile> Is this surface slippery or grippy?", 1, "vtv150k", single_clip=True)
+    assert grip is not None and grip.gold == {"attributes": ["friction"]}
+    assert free_question_view("Is this a real orange or a fake one? <tactile>", 1, "physiclear", True) is None
+    assert free_question_view("How firm does this feel? <tactile>", 1, "physiclear") is None, "off unless asked"
+    whole = free_question_view("<tactile> Describe what you feel.", 1, "physiclear", single_clip=True)
+    assert whole is not None and whole.gold["attributes"] == ["hardness", "roughness", "bumpiness"]
+
+
+def test_only_the_benchmarks_and_trainings_own_wordings_count_as_trained() -> None:
+    from tacreasoner.tasks.paraphrase import reword_items, trained_wording_of
+
+    items = build_items(make_clips(n_objects=12, repeats=2), tasks=["TFA-hardness", "TFA-combined", "SFD", "PC", "SOI"],
+                        vocabulary="physiclear", split="val", seed=0)
+    assert all(trained_wording_of(i.question) is not None for i in items)
+    for wording in ("heldout", "heldout2"):
+        assert all(trained_wording_of(i.question) is None for i in reword_items(items, wording))
+    # a bare "<tactile>\n{attribute}?" training wording matches a property name there, not any question
+    assert trained_wording_of("<tactile>\nhardness?") == "tr_tfa_rate_short"
+    assert trained_wording_of("<tactile>\nIs it springy?") is None

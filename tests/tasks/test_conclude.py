@@ -124,3 +124,22 @@ def test_single_clip_tasks_are_not_reasoned_over_objects() -> None:
     assert "TFA-hardness" not in REASONED_TASKS
     with pytest.raises(ValueError, match="not reasoned over objects"):
         implied_answers(tfa, [{"hardness": 0}])
+
+
+@pytest.mark.parametrize(("question", "vocabulary", "expected"), [
+    ("How firm does this feel? <tactile>", "physiclear", ["hardness"]),
+    ("<tactile>\nDoes it feel squishy or solid?", "physiclear", ["hardness"]),
+    ("<tactile>\nWhat is the texture like: smooth or rough?", "physiclear", ["roughness"]),
+    ("<tactile>\nWhat is the texture like: smooth or rough?", "vtv150k", ["friction"]),  # VTV-150K's wording
+    ("<tactile>\nCan you feel any lumps?", "physiclear", ["bumpiness"]),
+    ("<tactile>\nCan you feel any lumps?", "vtv150k", ["protrusion"]),
+    ("<tactile>\nIs it hard and rough?", "physiclear", ["hardness", "roughness"]),
+    ("<tactile>\nWhat does this feel like?", "physiclear", ["hardness", "roughness", "bumpiness"]),
+    ("Is this a real orange or a fake one? <tactile>", "physiclear", None),
+    ("<tactile>\nIs this surface slippery?", "physiclear", None),  # friction is no PhysiCLeAR property
+])
+def test_a_one_clip_questions_properties_are_read_from_everyday_words(question: str, vocabulary: str,
+                                                                     expected: list[str] | None) -> None:
+    from tacreasoner.tasks.conclude import asked_properties
+
+    assert asked_properties(question, vocabulary) == expected

@@ -96,11 +96,11 @@ def ask(
     engine = _load_engine(model, dtype=dtype)
     prompt = Prompt.ask(question, [str(p) for p in video])
     if answers != "direct":
-        from tacreasoner.evaluate.stepwise import reading_templates
+        from tacreasoner.evaluate.stepwise import SINGLE_CLIP_MODES, reading_templates
         from tacreasoner.serve.stepwise import answer_stepwise
 
         stepped = answer_stepwise(engine, question, [str(p) for p in video], vocabulary,
-                                  templates=reading_templates(answers))
+                                  templates=reading_templates(answers), single_clip=answers in SINGLE_CLIP_MODES)
         if stepped is not None:
             if as_json:
                 typer.echo(json.dumps({"model": str(model), "videos": [str(v) for v in video], "answers": answers,

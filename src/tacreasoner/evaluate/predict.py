@@ -316,7 +316,7 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
 
     if progress is not None:
         progress(len(items) - len(todo), len(items))
-    views = _question_views(todo) if answers != "direct" else {}
+    views = _question_views(todo, answers) if answers != "direct" else {}
     stepwise = [item for item in todo if item.id in views]
     direct = [item for item in todo if item.id not in views]
     # similar lengths together: less padding in each generate call
@@ -341,12 +341,13 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
     return out
 
 
-def _question_views(items: Sequence[QAItem]) -> dict[str, QAItem]:
-    """id → the stepwise mode's view of each item it answers (the others, single-clip questions and comparisons
-    whose words do not say what they ask, are answered in one pass)."""
-    from tacreasoner.evaluate.stepwise import question_view
+def _question_views(items: Sequence[QAItem], answers: str) -> dict[str, QAItem]:
+    """id → the stepwise mode's view of each item it answers (the others, single-clip questions (unless the mode
+    reads those in untrained words: ``SINGLE_CLIP_MODES``) and comparisons whose words do not say what they ask, are
+    answered in one pass)."""
+    from tacreasoner.evaluate.stepwise import SINGLE_CLIP_MODES, question_view
 
-    views = {item.id: question_view(item) for item in items}
+    views = {item.id: question_view(item, single_clip=answers in SINGLE_CLIP_MODES) for item in items}
     return {item_id: view for item_id, view in views.items() if view is not None}
 
 

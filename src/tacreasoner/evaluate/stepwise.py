@@ -41,6 +41,7 @@ from tacreasoner.tasks.conclude import (
     REASONED_TASKS,
     Levels,
     asked,
+    asked_properties,
     implied_answers,
     labelled_levels,
     needed_attributes,
@@ -48,13 +49,14 @@ from tacreasoner.tasks.conclude import (
     read_needs,
 )
 from tacreasoner.tasks.extract import extract_answer
+from tacreasoner.tasks.paraphrase import trained_wording_of
 from tacreasoner.tasks.schema import PLACEHOLDER, QAItem, VideoRef
 from tacreasoner.tasks.scoring import TSA_LETTERS
 from tacreasoner.tasks.templating import load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
 
-__all__ = ["STEP_TOKENS", "VOTE_TEMPLATES", "Step", "Stepwise", "conclude", "free_question_view", "question_view",
-           "reading_templates", "steps_for"]
+__all__ = ["SINGLE_CLIP_MODES", "STEP_TOKENS", "VOTE_TEMPLATES", "Step", "Stepwise", "conclude", "free_question_view",
+           "question_view", "reading_templates", "steps_for"]
 
 STEP_TOKENS = 96
 """Reply budget of one sub-question: a reading is a level word (~5 tokens), three named objects' levels ~40, a
@@ -65,6 +67,10 @@ READING_TEMPLATE = "tfa_choices"
 """The single-clip wording each video is read with: it lists the level words, so the reply is one of them."""
 VOTE_TEMPLATES = ("tfa_choices", "tfa_level", "tfa_describe", "tfa_feel")
 """``stepwise-vote``: every single-clip wording of ``tasks/templates/tfa.yaml``, the level taken by majority."""
+SINGLE_CLIP_MODES: tuple[str, ...] = ()
+"""Answering modes that answer a one-clip question in words the model was not trained on from the clip's reading
+(the properties read from its words by ``tasks.conclude.asked_properties``); questions in a trained wording stay one
+pass (experiments/2026-11-29_read_single_clip/decision.md)."""
 _OPTION = re.compile(r"\(([A-C])\)[^:\n(]*:\s*([^.\n(]*)")
 """``(A) lemon: soft, …`` in a reply listing all three named objects on one line: a span stops at the next ``(``."""
 
@@ -92,10 +98,26 @@ class Stepwise:
     (or, for a scenario, as needing nothing in particular)."""
 
 
-def question_view(item: QAItem) -> QAItem | None:
+def _single_clip_view(item: QAItem) -> QAItem | None:
+    """A question about one clip as the mode sees it: the properties it asks for, read from its words
+    (:func:`tacreasoner.tasks.conclude.asked_properties`); None when they are not read, or when it is asked in a
+    wording the model was trained on (one pass reads those as well: decision.md)."""
+    if len(item.videos) != 1 or trained_wording_of(item.question) is not None:
+        return None
+    found = asked_properties(item.question, item.vocabulary)
+    if not found:
+        return None
+    task = f"TFA-{found[0]}" if len(found) == 1 else "TFA-combined"
+    return dataclasses.replace(item, task=task, answer="?", gold={"attributes": found}, meta={}, objects=[])
+
+
+def question_view(item: QAItem, single_clip: bool = False) -> QAItem | None:
     """``item`` as the mode may see it: the question, its videos and options, and what the question asks read from
     its words (:func:`tacreasoner.tasks.conclude.asked`), with no gold answer, gold levels or scenario needs. None when
-    the words do not say what is asked (the item is then answered in one pass)."""
+    the words do not say what is asked (the item is then answered in one pass). ``single_clip``: a question about
+    one clip is answered from its reading too (its properties read from the words), else in one pass."""
+    if item.task.startswith("TFA"):
+        return _single_clip_view(item) if single_clip else None
     if item.task not in REASONED_TASKS:
         return None
     gold: dict[str, Any] = {}
@@ -115,13 +137,21 @@ _ORDINAL_OPTION = re.compile(r"^the (first|second|third) (object|one)$", re.IGNO
 _SCENARIO = re.compile(r"(?:suited for|an object for|imagine)\s+(.+?)\s*[.?](?:\s|$)", re.IGNORECASE)
 
 
-def free_question_view(question: str, videos: int, vocabulary: str) -> QAItem | None:
+def free_question_view(question: str, videos: int, vocabulary: str, single_clip: bool = False) -> QAItem | None:
     """A person's question over ``videos`` tactile videos as the stepwise mode's view, read from its words alone:
     a scenario with options "(A) the first object (B) the second object" (TSA), named options, one per video (OSC),
-    "more, less or similar" over two videos (PC), a comparative over two (SFD) or a superlative over three (SOI).
-    None when it is none of these (it is then answered in one pass)."""
-    if question.count(PLACEHOLDER) != videos or videos < 2:
+    "more, less or similar" over two videos (PC), a comparative over two (SFD) or a superlative over three (SOI);
+    over one video with ``single_clip``, the properties it asks for (TFA). None when it is none of these (answered in
+    one pass)."""
+    if question.count(PLACEHOLDER) != videos or videos < 1:
         return None
+    if videos == 1:
+        if not single_clip:
+            return None
+        digest = hashlib.sha1(question.encode()).hexdigest()[:12]
+        return _single_clip_view(QAItem(id=f"asked-{digest}", task="TFA-combined", question=question, answer="?",
+                                        gold={"levels": {"x": 0}},
+                                        videos=[VideoRef(clip_id="video0")], objects=[], vocabulary=vocabulary))
     options = [o.strip().rstrip(".?") for _, o in _OPTIONS.findall(question)]
     meta: dict[str, Any] = {}
     task, gold = None, None
@@ -148,6 +178,8 @@ def free_question_view(question: str, videos: int, vocabulary: str) -> QAItem | 
 def _attributes(item: QAItem) -> list[str]:
     """What each video is read for: the asked attribute; every attribute for OSC (matching) and TSA (its needs come
     from the model, so any attribute may count)."""
+    if item.task.startswith("TFA"):
+        return list(item.gold["attributes"])
     return list(get_vocabulary(item.vocabulary)) if item.task == "TSA" else needed_attributes(item)
 
 
@@ -168,7 +200,7 @@ def _options_text(item: QAItem) -> str:
 def steps_for(item: QAItem, videos: Sequence[VideoKey], templates: Sequence[str] = (READING_TEMPLATE,)) -> list[Step]:
     """The sub-questions of one multi-object item (a :func:`question_view`) whose videos are ``videos`` (its own, or
     under the removed-touch control the ones it is shown instead), each video read in each of ``templates``."""
-    if item.task not in REASONED_TASKS:
+    if item.task not in REASONED_TASKS and not (item.task.startswith("TFA") and "attributes" in item.gold):
         raise ValueError(f"item {item.id!r}: task {item.task} is answered in one pass, not stepwise")
     steps = [Step(_reading_key(a, key, t), _reading_question(item, a, t), (key,))
              for key in videos for a in _attributes(item) for t in templates]
@@ -240,6 +272,13 @@ def conclude(item: QAItem, videos: Sequence[VideoKey], replies: Mapping[str, str
                 guessed.append(f"Video {v + 1} {attribute}")
             mine[attribute] = 1 if rank is None else rank
         levels.append(mine)
+    if item.task.startswith("TFA"):  # one clip: its reading is the answer
+        attributes = _attributes(item)
+        said = "Video 1: " + ", ".join(vocab[a].phrase(levels[0][a]) + (" (a guess)" if f"Video 1 {a}" in guessed
+                                                                         else "") for a in attributes) + "."
+        answer_text = vocab[attributes[0]].phrase(levels[0][attributes[0]]) if len(attributes) == 1 else \
+            "; ".join(f"{a}: {vocab[a].phrase(levels[0][a])}" for a in attributes)
+        return Stepwise(f"<think>{said}</think><answer>{answer_text}</answer>", [s.key for s in steps], guessed)
     options: list[Levels] = []
     if item.task == "OSC":
         for k, read in enumerate(_options_read(replies[steps[-1].key], item)):

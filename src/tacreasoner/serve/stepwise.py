@@ -15,6 +15,7 @@ from typing import Any
 
 from tacreasoner.evaluate.stepwise import (
     READING_TEMPLATE,
+    SINGLE_CLIP_MODES,
     STEP_TOKENS,
     conclude,
     free_question_view,
@@ -27,23 +28,26 @@ from tacreasoner.serve.stream import split_channels
 __all__ = ["StepwiseAnswerer", "answer_stepwise", "stepwise_question"]
 
 
-def stepwise_question(prompt: Prompt, vocabulary: str) -> str | None:
+def stepwise_question(prompt: Prompt, vocabulary: str, single_clip: bool = False) -> str | None:
     """The question of a one-turn ``prompt`` (a system turn allowed) when the stepwise mode reads it; None for a
     conversation, or a question it does not read (answered in one pass)."""
     users = [m for m in prompt.messages if m["role"] == "user"]
     if len(users) != 1 or any(m["role"] == "assistant" for m in prompt.messages):
         return None
     question = users[0]["content"]
-    return question if free_question_view(question, len(prompt.videos), vocabulary) is not None else None
+    view = free_question_view(question, len(prompt.videos), vocabulary, single_clip)
+    return question if view is not None else None
 
 
 def answer_stepwise(engine: TactileEngine, question: str, videos: Sequence[Any], vocabulary: str,
-                    *, templates: Sequence[str] = (READING_TEMPLATE,), timeout_s: float | None = None) -> Reply | None:
+                    *, templates: Sequence[str] = (READING_TEMPLATE,), timeout_s: float | None = None,
+                    single_clip: bool = False) -> Reply | None:
     """The stepwise reply to ``question`` about ``videos`` (paths or frames, one per ``<tactile>``), in
     ``vocabulary``'s level words, each video read in each of ``templates`` (the majority level;
-    ``evaluate.stepwise.VOTE_TEMPLATES`` for all); None when the question is not one the mode reads. Greedy
-    sub-replies of at most :data:`~tacreasoner.evaluate.stepwise.STEP_TOKENS` tokens, in one batch."""
-    view = free_question_view(question, len(videos), vocabulary)
+    ``evaluate.stepwise.VOTE_TEMPLATES`` for all); ``single_clip``: a one-clip question in untrained words is read too.
+    None when the question is not one the mode reads. Greedy sub-replies of at most
+    :data:`~tacreasoner.evaluate.stepwise.STEP_TOKENS` tokens, in one batch."""
+    view = free_question_view(question, len(videos), vocabulary, single_clip)
     if view is None:
         return None
     keys = [(f"video{k + 1}", None, None) for k in range(len(videos))]
@@ -81,12 +85,12 @@ class StepwiseAnswerer:
         """The question to answer stepwise, or None: answered in one pass."""
         if self.answers == "direct" or not sampling.greedy:
             return None
-        return stepwise_question(prompt, self.vocabulary)
+        return stepwise_question(prompt, self.vocabulary, single_clip=self.answers in SINGLE_CLIP_MODES)
 
     def answer(self, engine: TactileEngine, question: str, videos: Sequence[Any],
                timeout_s: float | None = None) -> Reply:
         reply = answer_stepwise(engine, question, videos, self.vocabulary, templates=reading_templates(self.answers),
-                                timeout_s=timeout_s)
+                                timeout_s=timeout_s, single_clip=self.answers in SINGLE_CLIP_MODES)
         if reply is None:  # stepwise_question said it reads; it must
             raise RuntimeError(f"the stepwise mode could not read {question!r} after saying it would")
         return reply

@@ -27,7 +27,7 @@ from tacreasoner.tasks.templating import KINDS, Template, TemplateError, _check_
 from tacreasoner.yamlfile import line_of, read_yaml
 
 __all__ = ["HELDOUT_WORDINGS", "PARAPHRASE_DIR", "WORDINGS", "Paraphrase", "check_disjoint", "heldout_wording_of",
-           "load_paraphrases", "normalise", "reword", "reword_items"]
+           "load_paraphrases", "normalise", "reword", "reword_items", "trained_wording_of"]
 
 PARAPHRASE_DIR = Path(__file__).parent / "paraphrases"
 WORDINGS = ("train", "heldout", "heldout2")
@@ -100,11 +100,29 @@ def heldout_wording_of(question: str) -> str | None:
     return None
 
 
+def trained_wording_of(question: str) -> str | None:
+    """The id of the benchmark template or training wording ``question`` is asked in (slots filled with anything),
+    else None: a question the model was trained to read in these words."""
+    trained = [t for kind in load_templates().values() for t in kind] + \
+        [p.template for kind in load_paraphrases("train").values() for p in kind]
+    for template in trained:
+        if _pattern(template.text).fullmatch(question.strip()):
+            return template.id
+    return None
+
+
+_WORDS = r"[a-z]+(?: [a-z]+)?"
+_SLOT = {"attribute": r"[a-z]+", "comparative": _WORDS, "superlative": _WORDS, "fruit": r"[a-z ]+?",
+         "attributes": r"[a-z, ]+?"}
+"""What a slot is filled with (a property name, a word or two, a list of names); any other slot: text on one line.
+A bare ``{attribute}?`` wording then matches a property name, not any question."""
+
+
 @lru_cache(maxsize=256)
 def _pattern(text: str) -> re.Pattern[str]:
     parts = re.split(r"(\{[a-z_]+\})", text)
-    return re.compile("".join(".+?" if re.fullmatch(r"\{[a-z_]+\}", part) else re.escape(part) for part in parts),
-                      re.DOTALL)
+    return re.compile("".join(_SLOT.get(part[1:-1], r"[^\n]+?") if re.fullmatch(r"\{[a-z_]+\}", part)
+                              else re.escape(part) for part in parts), re.DOTALL)
 
 
 def check_disjoint(directory: str | None = None) -> None:
