@@ -67,7 +67,7 @@ READING_TEMPLATE = "tfa_choices"
 """The single-clip wording each video is read with: it lists the level words, so the reply is one of them."""
 VOTE_TEMPLATES = ("tfa_choices", "tfa_level", "tfa_describe", "tfa_feel")
 """``stepwise-vote``: every single-clip wording of ``tasks/templates/tfa.yaml``, the level taken by majority."""
-SINGLE_CLIP_MODES: tuple[str, ...] = ()
+SINGLE_CLIP_MODES: tuple[str, ...] = ("stepwise-vote",)
 """Answering modes that answer a one-clip question in words the model was not trained on from the clip's reading
 (the properties read from its words by ``tasks.conclude.asked_properties``); questions in a trained wording stay one
 pass (experiments/2026-11-29_read_single_clip/decision.md)."""
