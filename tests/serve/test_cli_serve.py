@@ -151,6 +151,13 @@ def test_ask_stepwise_reads_each_video_and_shows_the_readings(served_model: Path
     assert other.exit_code == 0 and "answered in one pass" in other.output
     voted = CliRunner().invoke(app, [*base[:-1], "stepwise-vote", "--json"])
     assert voted.exit_code == 0 and json.loads(voted.stdout)["timings"]["steps"] == 8  # 2 videos x 4 wordings
+    # stepwise-vote reads a one-clip question in a person's words: always a word of the asked property
+    firm = CliRunner().invoke(app, ["ask", "How firm does this feel? <tactile>", "--video", str(clip_files[0]),
+                                    "--model", str(served_model), "--answers", "stepwise-vote", "--json"])
+    assert firm.exit_code == 0, firm.output
+    read = json.loads(firm.stdout)
+    assert read["answer"] in ("soft", "moderately hard", "hard") and read["timings"]["steps"] == 4
+    assert read["think"].startswith("Video 1: ")
     bad = CliRunner().invoke(app, [*base, "--vocabulary", "octopi"])
     assert bad.exit_code == 2 and "unknown vocabulary 'octopi'" in bad.output
 
