@@ -85,7 +85,8 @@ def load_trained(model_dir: str | os.PathLike[str], adapter: str | os.PathLike[s
 def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[str], dtype: str | None = None,
                 answers: str = "direct") -> str:
     """Who answers what, as recorded on each prediction line: the model folder (path, weights' size and time), the
-    benchmark folder, the answering type where it is not float32 and the answering mode where it is not direct. Item
+    benchmark folder, the answering type where it is not float32 and the answering mode where it is not direct (and
+    whether it reads one-clip questions in untrained words: ``stepwise.SINGLE_CLIP_MODES``). Item
     ids repeat across models and benchmark variants, so a resumed file must be checked against it rather than mix two
     runs' answers."""
     model = Path(model_dir).resolve()
@@ -94,6 +95,10 @@ def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[
     dtype = resolve_dtype(dtype)
     cast = f"; dtype={dtype}" if dtype not in (None, "float32") else ""
     mode = f"; answers={check_answers(answers)}" if answers != "direct" else ""
+    from tacreasoner.evaluate.stepwise import SINGLE_CLIP_MODES
+
+    if answers in SINGLE_CLIP_MODES:  # since 2026-11-29: a folder answered before then is not resumed as if alike
+        mode += " (one-clip questions in untrained words read)"
     return f"model={model} [{stamp}]; bench={Path(bench_dir).resolve()}{_bench_version(Path(bench_dir))}{cast}{mode}"
 
 
