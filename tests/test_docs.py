@@ -74,3 +74,22 @@ def test_the_readme_opens_with_the_two_set_up_commands() -> None:
     # CI runs the tests as the README says (in parallel processes: issue 39's 15 minutes)
     test_command = commands[1][commands[1].index(".venv/bin/python -m pytest"):]
     assert "-n 2" in test_command and f"{test_command} || status=$?" in ci
+
+
+def test_the_example_questions_a_user_sees_are_held_out_wordings() -> None:
+    """The README's and the demo's example questions are in a held-out wording set (tasks/paraphrases): never in
+    training, so what a newcomer tries first shows how the model answers words it was not taught."""
+    import re
+
+    from tacreasoner.serve.demo import question_for
+    from tacreasoner.tasks.paraphrase import heldout_wording_of, trained_wording_of
+
+    section = (ROOT / "README.md").read_text(encoding="utf-8").split("## Asking, serving, the demo", 1)[1]
+    section = section.split("\n## ", 1)[0]
+    asked = re.findall(r'"([^"\n]*<tactile>[^"\n]*)"', section)
+    assert len(asked) >= 3, "the README's ask/serve examples were not found"
+    for question in asked:
+        assert heldout_wording_of(question) is not None and trained_wording_of(question) is None, question
+    demo_source = (ROOT / "src" / "tacreasoner" / "serve" / "demo.py").read_text(encoding="utf-8")
+    default = re.search(r'gr\.Textbox\(label="Question", value="([^"]+)"', demo_source)
+    assert default is not None and heldout_wording_of(question_for(default.group(1), 1)) is not None
