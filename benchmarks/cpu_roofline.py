@@ -169,6 +169,39 @@ def serving(run: Path, requests: int = 8) -> dict[str, Any]:
             "batched_s": together, "batching_gain": one_by_one / together}
 
 
+def decode_by_dtype(run: Path, rounds: int = 4, tokens: int = 32) -> dict[str, dict[str, float]]:
+    """A generated token's and a prefill's seconds with the weights in float32 and in bfloat16, alternated round by
+    round (median of the rounds after the first): decoding one token reads every weight once, so its time follows the
+    weights' bytes more than their FLOPs. ``tokens`` tokens are forced (no end of turn) so each call decodes alike."""
+    import torch
+
+    from tacreasoner.serve.engine import Prompt, TactileEngine
+
+    items, root = _items(run, 200)
+    item = next(i for i in items if len(i.videos) == 1)
+    prompt = Prompt.ask(item.question, [str(root / v.path) for v in item.videos])
+    engines = {d: TactileEngine.load(run / "model", dtype=d) for d in ("float32", "bfloat16")}
+    seen: dict[str, list[tuple[float, float]]] = {d: [] for d in engines}
+    for k in range(rounds):
+        order = list(engines) if k % 2 == 0 else list(reversed(engines))
+        for name in order:
+            engine = engines[name]
+            batch = dict(engine.processor.collate([engine.prepare(prompt).row]))
+            pad = engine.processor.tokenizer.pad_token_id
+            with torch.inference_mode():
+                start = time.perf_counter()
+                engine._base.generate(**batch, max_new_tokens=1, do_sample=False, pad_token_id=pad)
+                first = time.perf_counter() - start
+                start = time.perf_counter()
+                engine._base.generate(**batch, max_new_tokens=tokens + 1, min_new_tokens=tokens + 1, do_sample=False,
+                                      pad_token_id=pad)
+                whole = time.perf_counter() - start
+            if k:
+                seen[name].append(((whole - first) / tokens, first))
+    return {name: {"per_token_s": statistics.median(t for t, _ in v),
+                   "encoder_and_prefill_s": statistics.median(f for _, f in v)} for name, v in seen.items()}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--run", type=Path, default=Path("runs/quickstart"), help="A finished quickstart run folder.")
@@ -191,6 +224,7 @@ def main() -> None:
         stages = {f"stage{s}": train_steps(args.run, s, args.steps, Path(tmp)) for s in (1, 2)}
         answering = evaluation(args.run, args.items, settings.eval_batch_size, settings.max_new_tokens, Path(tmp))
     served = serving(args.run)
+    by_dtype = decode_by_dtype(args.run)
     best = max(p["gflops"] for p in peak.values())
     rows = [[f"matmul {args.matmul_n}³, {d}", "", round(p["gflops"], 1), f"{p['gflops'] / best:.0%}"]
             for d, p in peak.items()]
@@ -215,8 +249,17 @@ def main() -> None:
                [f"{served['requests']} requests one by one", round(served["one_by_one_s"], 2)],
                [f"the same {served['requests']} in one batch (gain {served['batching_gain']:.2f}×)",
                 round(served["batched_s"], 2)]]))
+    f32, bf16 = by_dtype["float32"], by_dtype["bfloat16"]
+    md += ("\nA generated token and the encoder + prefill of a one-video request, weights in float32 against bfloat16 "
+           "(`--dtype`), alternated, median of 3 rounds, 32 tokens forced:\n\n"
+           + md_table(["weights", "ms per generated token", "encoder + prefill s"],
+                      [[d, round(1000 * v["per_token_s"], 1), round(v["encoder_and_prefill_s"], 3)]
+                       for d, v in by_dtype.items()])
+           + f"\nbfloat16 takes {bf16['per_token_s'] / f32['per_token_s']:.2f}× float32's time per token: decoding "
+             "reads every weight once per token, so it goes with the weights' bytes (a 135M model's fp32 weights are "
+             "0.54 GB a token).\n")
     publish("cpu_roofline", {**info, "run": str(args.run), "peak": peak, "training": stages,
-                             "evaluation": answering, "serving": served}, md)
+                             "evaluation": answering, "serving": served, "decode_by_dtype": by_dtype}, md)
 
 
 if __name__ == "__main__":
