@@ -352,3 +352,12 @@ def test_settings_that_would_fail_every_request_are_refused(setting: str, value:
         ServerSettings(**{setting: value})
     with pytest.raises(ValueError, match="answers must be one of"):
         ServerSettings(answers="twice")
+
+
+def test_the_python_api_answers_a_comparison_stepwise(engine: TactileEngine, clip_files: list[Path]) -> None:
+    from tacreasoner.serve.stepwise import answer_stepwise
+
+    clips = [str(clip_files[0]), str(clip_files[1])]
+    reply = answer_stepwise(engine, COMPARE, clips, "physiclear")
+    assert reply is not None and reply.timings["steps"] == 2 and reply.reasoning.startswith("Video 1: ")
+    assert answer_stepwise(engine, ONE, clips[:1], "physiclear") is None, "one clip: left to one pass"

@@ -77,13 +77,12 @@ def ask(
 ) -> None:
     """Ask a trained model about tactile videos; streams its reasoning as it is generated, then the answer."""
     needs_train_extra("ask")
-    from tacreasoner.evaluate.predict import check_answers, check_dtype
+    from tacreasoner.evaluate.predict import check_dtype
     from tacreasoner.serve import Delta, Prompt, Reply, RequestError, Sampling
-    from tacreasoner.tasks.vocab import get_vocabulary
+    from tacreasoner.serve.stepwise import StepwiseAnswerer
 
     check_dtype(dtype)
-    check_answers(answers)
-    get_vocabulary(vocabulary)
+    stepwise = StepwiseAnswerer(answers, vocabulary)
     for path in video:
         if not path.is_file():
             raise FileNotFoundError(f"--video {path}: no such file")
@@ -96,12 +95,9 @@ def ask(
     engine = _load_engine(model, dtype=dtype)
     prompt = Prompt.ask(question, [str(p) for p in video])
     if answers != "direct":
-        from tacreasoner.evaluate.stepwise import SINGLE_CLIP_MODES, reading_templates
-        from tacreasoner.serve.stepwise import answer_stepwise
-
-        stepped = answer_stepwise(engine, question, [str(p) for p in video], vocabulary,
-                                  templates=reading_templates(answers), single_clip=answers in SINGLE_CLIP_MODES)
-        if stepped is not None:
+        view = stepwise.view(prompt)  # whatever --sample says: the readings are greedy
+        if view is not None:
+            stepped = stepwise.answer(engine, view, [str(p) for p in video])
             if as_json:
                 typer.echo(json.dumps({"model": str(model), "videos": [str(v) for v in video], "answers": answers,
                                        **stepped.to_dict()}))
@@ -177,7 +173,6 @@ def serve(
     from tacreasoner.serve.http import bind_socket, serve_forever
     from tacreasoner.serve.media import MediaLimits
     from tacreasoner.serve.openai_api import ServerSettings, create_app
-    from tacreasoner.serve.stepwise import StepwiseAnswerer
 
     for value, option in ((max_batch, "--max-batch"), (max_pending, "--max-pending"), (max_videos, "--max-videos"),
                           (threads, "--threads")):
@@ -187,11 +182,14 @@ def serve(
     if int(max_request_mb * 2**20) < 1:
         raise ValueError(f"--max-request-mb {max_request_mb:g} is under one byte")
     check_dtype(dtype)
-    StepwiseAnswerer(answers, vocabulary)  # checked before the model loads
     dirs = tuple(d.resolve() for d in allow_dir or [])
     for d in dirs:
         if not d.is_dir():
             raise FileNotFoundError(f"--allow-dir {d}: no such directory")
+    settings = ServerSettings(api_key=api_key, max_request_bytes=int(max_request_mb * 2**20),  # checked: before loading
+                              decode_timeout_s=decode_timeout, max_pending=max_pending, max_batch=max_batch,
+                              limits=MediaLimits(max_videos=max_videos, allowed_dirs=dirs),
+                              answers=answers, vocabulary=vocabulary)
     sock = bind_socket(host, port)  # a taken port is found now, not after loading the model
     try:
         if threads is not None:
@@ -199,10 +197,6 @@ def serve(
 
             torch.set_num_threads(threads)
         engine = _load_engine(model, name, dtype)
-        settings = ServerSettings(api_key=api_key, max_request_bytes=int(max_request_mb * 2**20),
-                                  decode_timeout_s=decode_timeout, max_pending=max_pending, max_batch=max_batch,
-                                  limits=MediaLimits(max_videos=max_videos, allowed_dirs=dirs),
-                                  answers=answers, vocabulary=vocabulary)
         console.print(f"serving {model} as {name!r} on http://{host}:{port}/v1 "
                       f"({'API key required' if api_key else 'no API key'}; batching up to {max_batch}"
                       f"{f'; torch threads: {threads}' if threads else ''}; answers: {answers})")

@@ -16,10 +16,11 @@ from pathlib import Path
 from typing import Any
 
 from tacreasoner.evaluate.octopi import octopi_markdown, octopi_table
+from tacreasoner.tasks.paraphrase import HELDOUT_WORDINGS
 
 __all__ = ["RECOMMENDED_ANSWERS", "WORDINGS", "FolderEvaluation", "evaluate_folder", "same_settings_as_before"]
 
-WORDINGS = ("benchmark", "heldout", "heldout2")
+WORDINGS = ("benchmark", *HELDOUT_WORDINGS)
 RECOMMENDED_ANSWERS = "stepwise-vote"
 """How the recommended PhysiCLeAR model answers questions over several objects: each video read in a pass of its own,
 in every single-clip wording with the majority level, and the conclusion drawn by the rule (``evaluate/stepwise.py``).

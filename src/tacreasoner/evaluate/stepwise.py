@@ -98,17 +98,25 @@ class Stepwise:
     (or, for a scenario, as needing nothing in particular)."""
 
 
-def _single_clip_view(item: QAItem) -> QAItem | None:
-    """A question about one clip as the mode sees it: the properties it asks for, read from its words
+def _one_clip_asked(question: str, vocabulary: str) -> tuple[str, dict[str, Any]] | None:
+    """What a question about one clip asks, as (task, view gold): the properties read from its words
     (:func:`tacreasoner.tasks.conclude.asked_properties`); None when they are not read, or when it is asked in a
     wording the model was trained on (one pass reads those as well: decision.md)."""
-    if len(item.videos) != 1 or trained_wording_of(item.question) is not None:
+    if trained_wording_of(question) is not None:
         return None
-    found = asked_properties(item.question, item.vocabulary)
+    found = asked_properties(question, vocabulary)
     if not found:
         return None
-    task = f"TFA-{found[0]}" if len(found) == 1 else "TFA-combined"
-    return dataclasses.replace(item, task=task, answer="?", gold={"attributes": found}, meta={}, objects=[])
+    return (f"TFA-{found[0]}" if len(found) == 1 else "TFA-combined"), {"attributes": found}
+
+
+def _single_clip_view(item: QAItem) -> QAItem | None:
+    """A question about one clip as the mode sees it (:func:`_one_clip_asked`)."""
+    asked_here = _one_clip_asked(item.question, item.vocabulary) if len(item.videos) == 1 else None
+    if asked_here is None:
+        return None
+    task, gold = asked_here
+    return dataclasses.replace(item, task=task, answer="?", gold=gold, meta={}, objects=[])
 
 
 def question_view(item: QAItem, single_clip: bool = False) -> QAItem | None:
@@ -145,17 +153,13 @@ def free_question_view(question: str, videos: int, vocabulary: str, single_clip:
     one pass)."""
     if question.count(PLACEHOLDER) != videos or videos < 1:
         return None
-    if videos == 1:
-        if not single_clip:
-            return None
-        digest = hashlib.sha1(question.encode()).hexdigest()[:12]
-        return _single_clip_view(QAItem(id=f"asked-{digest}", task="TFA-combined", question=question, answer="?",
-                                        gold={"levels": {"x": 0}},
-                                        videos=[VideoRef(clip_id="video0")], objects=[], vocabulary=vocabulary))
     options = [o.strip().rstrip(".?") for _, o in _OPTIONS.findall(question)]
     meta: dict[str, Any] = {}
     task, gold = None, None
-    if options and all(_ORDINAL_OPTION.match(o) for o in options):
+    if videos == 1:
+        if single_clip and (asked_here := _one_clip_asked(question, vocabulary)) is not None:
+            task, gold = asked_here
+    elif options and all(_ORDINAL_OPTION.match(o) for o in options):
         found = _SCENARIO.search(question.replace(PLACEHOLDER, " "))
         if found and len(options) == videos == 2:
             task, gold, meta = "TSA", {}, {"scenario_text": found.group(1).strip()}

@@ -282,10 +282,10 @@ class DemoCallbacks:
             prompt = Prompt.ask(question_for(question.strip(), len(chosen)), frames)
             sampling = Sampling(max_new_tokens=self.max_new_tokens, temperature=0.7 if sample else 0.0,
                                 top_p=0.9 if sample else 1.0)
-            stepwise = self.stepwise.question(prompt, sampling)
-            if stepwise is not None:
+            view = self.stepwise.view(prompt, sampling)
+            if view is not None:
                 yield "", "", f"reading each clip ({self.stepwise.answers})…"
-                reply = self.stepwise.answer(self.engine, stepwise, frames)
+                reply = self.stepwise.answer(self.engine, view, frames)
                 yield reply.reasoning, reply.content or "(no answer)", \
                     f"{self.stepwise.answers}: {int(reply.timings['steps'])} passes, {reply.completion_tokens} " \
                     f"tokens in {reply.timings['total_s']:.2f} s"

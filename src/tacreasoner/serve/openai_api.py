@@ -218,12 +218,12 @@ def _prepare(engine: TactileEngine, messages: list[dict[str, Any]], limits: Medi
     back as the work to run instead (its videos decoded)."""
     start = time.perf_counter()
     prompt = messages_to_prompt(messages, limits)
-    question = stepwise.question(prompt, sampling)
-    if question is not None:
+    view = stepwise.view(prompt, sampling)
+    if view is not None:
         decoded = time.perf_counter() - start
 
         def work(engine: TactileEngine, timeout_s: float | None) -> Reply:
-            reply = stepwise.answer(engine, question, prompt.videos, timeout_s)
+            reply = stepwise.answer(engine, view, prompt.videos, timeout_s)
             reply.timings = {"prepare_s": round(decoded, 4), **reply.timings,
                              "total_s": round(decoded + reply.timings["total_s"], 4)}
             return reply

@@ -4,7 +4,7 @@ with ``--answers stepwise`` or ``stepwise-vote``).
 The same mode as the evaluation's (:mod:`tacreasoner.evaluate.stepwise`): what the question asks is read from its
 words (:func:`~tacreasoner.evaluate.stepwise.free_question_view`), each video is read in a pass of its own (named
 objects and a scenario's needs asked as text), and the rule writes the conclusion; the reply shows the readings and
-the step. A question it cannot read is left to the one-pass answer (:func:`stepwise_question` returns None).
+the step. A question it cannot read is left to the one-pass answer (:meth:`StepwiseAnswerer.view` returns None).
 """
 
 from __future__ import annotations
@@ -24,32 +24,17 @@ from tacreasoner.evaluate.stepwise import (
 )
 from tacreasoner.serve.engine import Prompt, Reply, Sampling, TactileEngine
 from tacreasoner.serve.stream import split_channels
+from tacreasoner.tasks.schema import QAItem
 
-__all__ = ["StepwiseAnswerer", "answer_stepwise", "stepwise_question"]
-
-
-def stepwise_question(prompt: Prompt, vocabulary: str, single_clip: bool = False) -> str | None:
-    """The question of a one-turn ``prompt`` (a system turn allowed) when the stepwise mode reads it; None for a
-    conversation, or a question it does not read (answered in one pass)."""
-    users = [m for m in prompt.messages if m["role"] == "user"]
-    if len(users) != 1 or any(m["role"] == "assistant" for m in prompt.messages):
-        return None
-    question = users[0]["content"]
-    view = free_question_view(question, len(prompt.videos), vocabulary, single_clip)
-    return question if view is not None else None
+__all__ = ["StepwiseAnswerer", "answer_stepwise", "answer_view"]
 
 
-def answer_stepwise(engine: TactileEngine, question: str, videos: Sequence[Any], vocabulary: str,
-                    *, templates: Sequence[str] = (READING_TEMPLATE,), timeout_s: float | None = None,
-                    single_clip: bool = False) -> Reply | None:
-    """The stepwise reply to ``question`` about ``videos`` (paths or frames, one per ``<tactile>``), in
-    ``vocabulary``'s level words, each video read in each of ``templates`` (the majority level;
-    ``evaluate.stepwise.VOTE_TEMPLATES`` for all); ``single_clip``: a one-clip question in untrained words is read too.
-    None when the question is not one the mode reads. Greedy sub-replies of at most
+def answer_view(engine: TactileEngine, view: QAItem, videos: Sequence[Any],
+                templates: Sequence[str] = (READING_TEMPLATE,), timeout_s: float | None = None) -> Reply:
+    """The stepwise reply to a question's ``view`` (:func:`~tacreasoner.evaluate.stepwise.free_question_view`) about
+    ``videos`` (paths or frames, one per ``<tactile>``), each video read in each of ``templates`` (the majority
+    level; ``evaluate.stepwise.VOTE_TEMPLATES`` for all). Greedy sub-replies of at most
     :data:`~tacreasoner.evaluate.stepwise.STEP_TOKENS` tokens, in one batch."""
-    view = free_question_view(question, len(videos), vocabulary, single_clip)
-    if view is None:
-        return None
     keys = [(f"video{k + 1}", None, None) for k in range(len(videos))]
     video_of = dict(zip(keys, videos, strict=True))
     steps = steps_for(view, keys, templates)
@@ -67,10 +52,19 @@ def answer_stepwise(engine: TactileEngine, question: str, videos: Sequence[Any],
                           "tokens_per_s": round(completion / total, 2) if total > 0 else 0.0})
 
 
+def answer_stepwise(engine: TactileEngine, question: str, videos: Sequence[Any], vocabulary: str,
+                    *, templates: Sequence[str] = (READING_TEMPLATE,), timeout_s: float | None = None,
+                    single_clip: bool = False) -> Reply | None:
+    """:func:`answer_view` of ``question`` read in ``vocabulary``'s level words; ``single_clip``: a one-clip question
+    in untrained words is read too. None when the question is not one the mode reads."""
+    view = free_question_view(question, len(videos), vocabulary, single_clip)
+    return None if view is None else answer_view(engine, view, videos, templates, timeout_s)
+
+
 class StepwiseAnswerer:
-    """How a server or the demo answers: ``direct`` (every question in one pass), ``stepwise`` or
-    ``stepwise-vote`` (a comparison it reads, greedy; a sampled request keeps its one sampled pass, since the
-    readings and the rule are deterministic)."""
+    """How ``ask``, a server or the demo answers: ``direct`` (every question in one pass), ``stepwise`` or
+    ``stepwise-vote`` (a question it reads, greedy; on a server or the demo a sampled request keeps its one sampled
+    pass, since the readings and the rule are deterministic)."""
 
     def __init__(self, answers: str = "direct", vocabulary: str = "physiclear") -> None:
         from tacreasoner.evaluate.predict import check_answers
@@ -81,16 +75,17 @@ class StepwiseAnswerer:
         self.answers = answers
         self.vocabulary = vocabulary
 
-    def question(self, prompt: Prompt, sampling: Sampling) -> str | None:
-        """The question to answer stepwise, or None: answered in one pass."""
-        if self.answers == "direct" or not sampling.greedy:
+    def view(self, prompt: Prompt, sampling: Sampling | None = None) -> QAItem | None:
+        """What a one-turn ``prompt`` (a system turn allowed) asks, when this mode answers it stepwise; None for
+        ``direct``, a conversation, a sampled request (``sampling`` not greedy) or a question the mode does not read:
+        answered in one pass."""
+        users = [m for m in prompt.messages if m["role"] == "user"]
+        if self.answers == "direct" or (sampling is not None and not sampling.greedy) or len(users) != 1 or \
+                any(m["role"] == "assistant" for m in prompt.messages):
             return None
-        return stepwise_question(prompt, self.vocabulary, single_clip=self.answers in SINGLE_CLIP_MODES)
+        return free_question_view(users[0]["content"], len(prompt.videos), self.vocabulary,
+                                  single_clip=self.answers in SINGLE_CLIP_MODES)
 
-    def answer(self, engine: TactileEngine, question: str, videos: Sequence[Any],
+    def answer(self, engine: TactileEngine, view: QAItem, videos: Sequence[Any],
                timeout_s: float | None = None) -> Reply:
-        reply = answer_stepwise(engine, question, videos, self.vocabulary, templates=reading_templates(self.answers),
-                                timeout_s=timeout_s, single_clip=self.answers in SINGLE_CLIP_MODES)
-        if reply is None:  # stepwise_question said it reads; it must
-            raise RuntimeError(f"the stepwise mode could not read {question!r} after saying it would")
-        return reply
+        return answer_view(engine, view, videos, reading_templates(self.answers), timeout_s)

@@ -93,22 +93,20 @@ def load_paraphrases(wording: str, directory: str | None = None) -> Mapping[str,
 def heldout_wording_of(question: str) -> str | None:
     """The id of the held-out wording (of either set) ``question`` is asked in (slots filled with anything), else
     None: how a test proves a training question never uses one."""
-    for kind in (k for wording in HELDOUT_WORDINGS for k in load_paraphrases(wording).values()):
-        for p in kind:
-            if _pattern(p.template.text).fullmatch(question.strip()):
-                return p.template.id
-    return None
+    return _wording_of(question, [p.template for wording in HELDOUT_WORDINGS
+                                  for kind in load_paraphrases(wording).values() for p in kind])
 
 
 def trained_wording_of(question: str) -> str | None:
     """The id of the benchmark template or training wording ``question`` is asked in (slots filled with anything),
     else None: a question the model was trained to read in these words."""
-    trained = [t for kind in load_templates().values() for t in kind] + \
-        [p.template for kind in load_paraphrases("train").values() for p in kind]
-    for template in trained:
-        if _pattern(template.text).fullmatch(question.strip()):
-            return template.id
-    return None
+    return _wording_of(question, [t for kind in load_templates().values() for t in kind] +
+                       [p.template for kind in load_paraphrases("train").values() for p in kind])
+
+
+def _wording_of(question: str, templates: Sequence[Template]) -> str | None:
+    """The id of the first of ``templates`` whose text, slots filled, is ``question``."""
+    return next((t.id for t in templates if _pattern(t.text).fullmatch(question.strip())), None)
 
 
 _WORDS = r"[a-z]+(?: [a-z]+)?"
