@@ -103,3 +103,39 @@ def test_sensor_index_maps_variants_to_their_base_style() -> None:
     types = ("unknown", "mini", "digit", "tac3d")
     assert [sensor_index(s, types) for s in ("mini", "digit@60", "Mini+markers", "tac3d", "gelsight", "")] == \
         [1, 2, 1, 3, 0, 0]
+
+
+def test_a_portrait_frame_is_turned_to_the_models_landscape_size() -> None:
+    """``orientation: match``: a DIGIT's 320×240 frames fill a 120×160 image instead of a strip of it; frames
+    already in the model's orientation are left as they are."""
+    portrait = np.full((4, 32, 24, 3), 100, np.uint8)
+    portrait[:, :8] = 200  # the top band of the portrait frame → the left band once turned counter-clockwise
+    as_is = VideoProcessingConfig(num_frames=4, image_size=(24, 32), background="keep", mean=0.0, std=1.0)
+    match = VideoProcessingConfig(num_frames=4, image_size=(24, 32), background="keep", mean=0.0, std=1.0,
+                                  orientation="match")
+    turned = preprocess_video(portrait, match)[0, 0]
+    assert np.allclose(turned[:, :8], 200 / 255) and np.allclose(turned[:, 8:], 100 / 255)
+    kept = preprocess_video(portrait, as_is)[0, 0]
+    assert not np.allclose(kept, turned)
+    landscape = _frames(4)
+    assert np.array_equal(preprocess_video(landscape, match), preprocess_video(landscape, as_is))
+    with pytest.raises(ValueError, match="orientation 'rotate' is not one of"):
+        VideoProcessingConfig(orientation="rotate")
+
+
+def test_magnitude_colour_is_the_size_of_the_change_without_its_colour() -> None:
+    """``colour: magnitude``: an imprint lit red and the same imprint lit blue give the same input."""
+    rest = np.full((3, 16, 16, 3), 100, np.uint8)
+    red, blue = rest.copy(), rest.copy()
+    red[1:, 4:8, 4:8, 0] = 160
+    blue[1:, 4:8, 4:8, 2] = 40
+    config = VideoProcessingConfig(num_frames=2, image_size=(16, 16), colour="magnitude", mean=0.5, std=1.0,
+                                   sampling="uniform")
+    a, b = preprocess_video(red, config), preprocess_video(blue, config)
+    assert np.allclose(a, b) and np.allclose(a[:, 0], a[:, 2])
+    assert np.allclose(a[-1, 0, 4:8, 4:8], 60 / 255 / np.sqrt(3)) and np.allclose(a[-1, 0, :4], 0.0)
+    rgb = VideoProcessingConfig(num_frames=2, image_size=(16, 16), mean=0.5, std=1.0, sampling="uniform")
+    assert not np.allclose(preprocess_video(red, rgb), preprocess_video(blue, rgb))
+    with pytest.raises(ValueError, match="colour 'magnitude' needs background 'subtract'"):
+        VideoProcessingConfig(background="keep", colour="magnitude")
+    assert VideoProcessingConfig.from_dict(config.to_dict()) == config

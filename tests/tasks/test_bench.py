@@ -20,7 +20,8 @@ def bench(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> 
 
 
 def _all_items(bench: Path) -> dict[str, list]:
-    return {split: load_bench(bench, split)[1] for split in ("train", "val", "test", "test_heldout_sensor")}
+    return {split: load_bench(bench, split)[1]
+            for split in ("train", "val", "test", "val_heldout_sensor", "test_heldout_sensor")}
 
 
 def test_objects_never_cross_splits_and_tsa_is_zero_shot(bench: Path) -> None:
@@ -28,19 +29,22 @@ def test_objects_never_cross_splits_and_tsa_is_zero_shot(bench: Path) -> None:
     for split, items in _all_items(bench).items():
         for item in items:
             for obj in item.objects:
-                splits_of[obj].add("test" if split == "test_heldout_sensor" else split)
+                splits_of[obj].add(split.removesuffix("_heldout_sensor"))
     assert splits_of and all(len(s) == 1 for s in splits_of.values())
     train = load_bench(bench, "train")[1]
     assert train and not any(i.task == "TSA" for i in train)
     assert any(i.task == "TSA" for i in load_bench(bench, "test")[1])
 
 
-def test_heldout_sensor_file_holds_only_that_sensor_on_test_objects(bench: Path) -> None:
-    info, held = load_bench(bench, "test_heldout_sensor")
-    test_objects = {o for o, s in info["splits"].items() if s == "test"}
-    assert held
+@pytest.mark.parametrize("split", ["val", "test"])
+def test_heldout_sensor_files_hold_only_that_sensor_on_their_split_objects(bench: Path, split: str) -> None:
+    """val_heldout_sensor is where a recipe for unseen sensors is chosen; test_heldout_sensor is read once."""
+    info, held = load_bench(bench, f"{split}_heldout_sensor")
+    split_objects = {o for o, s in info["splits"].items() if s == split}
+    assert held and info["counts"][f"{split}_heldout_sensor"]
     assert all(ref.clip_id.startswith("digit/") for i in held for ref in i.videos)
-    assert all(set(i.objects) <= test_objects for i in held)
+    assert all(set(i.objects) <= split_objects for i in held)
+    assert all(i.split == split and i.id.endswith("-digit") for i in held)
     main = [ref for split in ("train", "val", "test") for i in load_bench(bench, split)[1] for ref in i.videos]
     assert all(ref.clip_id.startswith("mini/") for ref in main)
 
@@ -61,7 +65,7 @@ def test_items_are_answerable_and_videos_resolve(bench: Path) -> None:
 
 def test_same_seed_same_benchmark(small_sim_dataset: Path, bench: Path, tmp_path: Path) -> None:
     build_bench("sim", small_sim_dataset, tmp_path, seed=0, heldout_sensor="digit")
-    for name in ("train.jsonl", "test.jsonl", "test_heldout_sensor.jsonl"):
+    for name in ("train.jsonl", "test.jsonl", "val_heldout_sensor.jsonl", "test_heldout_sensor.jsonl"):
         assert (tmp_path / name).read_text() == (bench / name).read_text()
 
 

@@ -104,7 +104,8 @@ Seed = Annotated[int, typer.Option("--seed", help="Master seed; a clip depends o
 Workers = Annotated[int | None, typer.Option("--workers", help="Worker processes (default: CPU count).",
                                              show_default=False)]
 Bench = Annotated[Path, typer.Option("--bench", help="Benchmark directory (from `tacreasoner build-bench`).")]
-Split = Annotated[str, typer.Option("--split", help="train, val, test or test_heldout_sensor (choose on val; read "
+Split = Annotated[str, typer.Option("--split", help="train, val, test, or a held-out sensor's "
+                                                    "val_heldout_sensor / test_heldout_sensor (choose on val; read "
                                                     "test once, when the choice is made).")]
 Mode = Annotated[str, typer.Option("--mode", help="Answer extraction: strict or lenient.")]
 VideoCache = Annotated[Path | None, typer.Option(

@@ -80,6 +80,12 @@ def encoder_get_cmd(
                                                  "phase.", show_default=False)] = None,
     background: Annotated[str | None, typer.Option("--background", help="keep (the sensor image) or subtract (the "
                                                    "imprint alone).", show_default=False)] = None,
+    colour: Annotated[str | None, typer.Option("--colour", help="rgb, or magnitude (with --background subtract: "
+                                               "the imprint's size of change, without the sensor's LED colours).",
+                                               show_default=False)] = None,
+    orientation: Annotated[str | None, typer.Option("--orientation", help="as_is, or match (portrait frames such as "
+                                                    "a DIGIT's turned a quarter to the model's landscape size).",
+                                                    show_default=False)] = None,
 ) -> None:
     """Write a pretrained backbone as an appearance folder (config, safetensors weights, its frame preparation).
     The defaults are the ones chosen by cross-validation on PhysiCLeAR's train objects (docs/real-data.md)."""
@@ -89,11 +95,13 @@ def encoder_get_cmd(
     if name.lower().replace("_", "-") != "efficientnet-lite0":
         raise ValueError(f"unknown backbone {name!r}; available: efficientnet-lite0")
     chosen = {k: v for k, v in {"layer": layer, "size": size, "frames": frames, "sampling": sampling,
-                                "background": background}.items() if v is not None}
+                                "background": background, "colour": colour,
+                                "orientation": orientation}.items() if v is not None}
     path, encoder, video = write_imagenet_backbone(out, chosen)
     console.print(f"model.appearance: {path} (EfficientNet-Lite0 ImageNet weights cut at {encoder.backbone_layer}: "
                   f"{encoder.hidden_size} channels; {video.num_frames} {video.sampling} frames of "
-                  f"{video.image_size[0]}x{video.image_size[1]}, background {video.background})")
+                  f"{video.image_size[0]}x{video.image_size[1]}, background {video.background}, colour {video.colour}, "
+                  f"orientation {video.orientation})")
 
 
 

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from tacreasoner.jsonl import atomic_write_text
-from tacreasoner.tasks.bench import BENCH_INFO, HELDOUT_SENSOR_FILE, load_bench
+from tacreasoner.tasks.bench import BENCH_INFO, HELDOUT_SENSOR_SPLITS, load_bench
 from tacreasoner.tasks.schema import ORDINALS, SPLITS, QAItem
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
@@ -290,8 +290,7 @@ def augment_items(items: Sequence[QAItem], video_root: Path, reference: Referenc
 
 def _bench_files(bench_dir: Path) -> list[tuple[str, Path]]:
     """(split name for :func:`load_bench`, file) of every split file a benchmark folder has."""
-    named = [(s, bench_dir / f"{s}.jsonl") for s in SPLITS]
-    named.append(("test_heldout_sensor", bench_dir / HELDOUT_SENSOR_FILE))
+    named = [(s, bench_dir / f"{s}.jsonl") for s in (*SPLITS, *HELDOUT_SENSOR_SPLITS)]
     return [(s, p) for s, p in named if p.is_file()]
 
 

@@ -151,9 +151,11 @@ def load_imagenet_weights(model: EfficientNetAppearance, path: str | os.PathLike
     return {"weights": str(path), "tensors": len(loaded)}
 
 
-def backbone_settings(layer: str, size: str | tuple[int, int], frames: int, sampling: str, background: str
+def backbone_settings(layer: str, size: str | tuple[int, int], frames: int, sampling: str, background: str,
+                      colour: str = "rgb", orientation: str = "as_is",
                       ) -> tuple[TactileEncoderConfig, VideoProcessingConfig]:
-    """The encoder config and frame preparation of an EfficientNet-Lite0 appearance branch; ``size`` "HxW"."""
+    """The encoder config and frame preparation of an EfficientNet-Lite0 appearance branch; ``size`` "HxW";
+    ``colour``/``orientation`` as :class:`VideoProcessingConfig` has them."""
     if isinstance(size, str):
         try:
             height, width = (int(v) for v in size.lower().split("x"))
@@ -169,7 +171,8 @@ def backbone_settings(layer: str, size: str | tuple[int, int], frames: int, samp
     # sees an image with contrast rather than a flat grey
     keep = background == "keep"
     video = VideoProcessingConfig(num_frames=frames, image_size=(height, width), sampling=sampling,
-                                  background=background, mean=IMAGENET_MEAN if keep else 0.5,
+                                  background=background, colour=colour, orientation=orientation,
+                                  mean=IMAGENET_MEAN if keep else 0.5,
                                   std=IMAGENET_STD if keep else tuple(s / 4 for s in IMAGENET_STD))
     return encoder, video
 
@@ -188,7 +191,8 @@ def save_imagenet_backbone(out: str | os.PathLike[str], config: TactileEncoderCo
 
 def write_imagenet_backbone(out: str | os.PathLike[str], settings: dict[str, Any] | None = None,
                             ) -> tuple[Path, TactileEncoderConfig, VideoProcessingConfig]:
-    """:func:`save_imagenet_backbone` with ``settings`` (layer, size, frames, sampling, background) over
+    """:func:`save_imagenet_backbone` with ``settings`` (layer, size, frames, sampling, background, colour,
+    orientation) over
     :data:`BACKBONE_DEFAULTS`: what ``encoder get`` and the recipes write; returns the folder and what it holds."""
     config, video = backbone_settings(**{**BACKBONE_DEFAULTS, **(settings or {})})
     return save_imagenet_backbone(out, config, video.to_dict()), config, video

@@ -28,6 +28,8 @@ from tacreasoner.fields import reject_unknown_fields
 __all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "preprocess_video", "sensor_index", "sensor_of"]
 
 BACKGROUNDS = ("subtract", "keep")
+COLOURS = ("rgb", "magnitude")
+ORIENTATIONS = ("as_is", "match")
 
 VideoInput = TactileClip | np.ndarray | str | os.PathLike
 """A clip, T×H×W×3 uint8 frames, or a path to a video file."""
@@ -49,6 +51,13 @@ class VideoProcessingConfig:
     background: str = "subtract"
     """``subtract``: (frame − the gel at rest)/255 + 0.5, the imprint alone; ``keep``: frame/255, the sensor image
     as it is (what an ImageNet backbone was trained on: lit gel, shading and texture)."""
+    colour: str = "rgb"
+    """``rgb``: the frame's colours; ``magnitude`` (with ``subtract``): how much each pixel changed, |I − B| over
+    the three channels, the same on each: the imprint without the sensor's light colours, which differ between
+    sensors (a GelSight Mini and a DIGIT light the gel with differently placed and coloured LEDs)."""
+    orientation: str = "as_is"
+    """``match``: a portrait frame (a DIGIT's 320×240) is turned a quarter to the model's landscape ``image_size``
+    (and the other way round) before resizing, so it fills the image instead of a strip of it."""
 
     def __post_init__(self) -> None:
         self.image_size = tuple(int(v) for v in self.image_size)  # type: ignore[assignment]
@@ -61,6 +70,14 @@ class VideoProcessingConfig:
         if self.background not in BACKGROUNDS:
             raise ValueError(f"video processing: background {self.background!r} is not one of "
                              f"{', '.join(BACKGROUNDS)}")
+        if self.colour not in COLOURS:
+            raise ValueError(f"video processing: colour {self.colour!r} is not one of {', '.join(COLOURS)}")
+        if self.colour == "magnitude" and self.background != "subtract":
+            raise ValueError("video processing: colour 'magnitude' needs background 'subtract' (it is the size of "
+                             "the change from the gel at rest)")
+        if self.orientation not in ORIENTATIONS:
+            raise ValueError(f"video processing: orientation {self.orientation!r} is not one of "
+                             f"{', '.join(ORIENTATIONS)}")
         if self.num_frames < 1:
             raise ValueError(f"video processing: num_frames must be ≥ 1, got {self.num_frames}")
         if len(self.image_size) != 2 or min(self.image_size) < 1:
@@ -80,7 +97,10 @@ class VideoProcessingConfig:
 
         return {"num_frames": self.num_frames, "image_size": list(self.image_size), "sampling": self.sampling,
                 "resize_mode": self.resize_mode, "mean": plain(self.mean), "std": plain(self.std),
-                "background": self.background}
+                "background": self.background,
+                # written only when set, so a config (and a cache key) from before these options stays the same
+                **({"colour": self.colour} if self.colour != "rgb" else {}),
+                **({"orientation": self.orientation} if self.orientation != "as_is" else {})}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None) -> VideoProcessingConfig:
@@ -134,15 +154,23 @@ def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = N
     idx = sample_indices(len(frames), config.num_frames, method,
                          frames=frames if method in ("salient", "contact") else None,
                          phases=phases if method == "phase" else None, seed=seed)
+    turn = config.orientation == "match" and (frames.shape[1] > frames.shape[2]) != \
+        (config.image_size[0] > config.image_size[1])
     if config.background == "keep":
-        out = resize_keep_aspect(frames[idx], *config.image_size, mode=config.resize_mode).astype(np.float32)
+        chosen = np.rot90(frames[idx], axes=(1, 2)) if turn else frames[idx]
+        out = resize_keep_aspect(chosen, *config.image_size, mode=config.resize_mode).astype(np.float32)
         out /= 255.0
     else:
         if background is None:
             background = background_frame(frames, phases)
-        chosen = resize_keep_aspect(np.concatenate([background[None], frames[idx]]), *config.image_size,
-                                    mode=config.resize_mode)
+        chosen = np.concatenate([background[None], frames[idx]])
+        if turn:
+            chosen = np.rot90(chosen, axes=(1, 2))
+        chosen = resize_keep_aspect(np.ascontiguousarray(chosen), *config.image_size, mode=config.resize_mode)
         out = subtract_background(chosen[1:], chosen[0])
+        if config.colour == "magnitude":
+            change = np.sqrt(np.square(out - 0.5).sum(axis=-1, keepdims=True) / 3.0)
+            out = np.repeat(change + 0.5, 3, axis=-1)
     out -= np.asarray(config.mean, np.float32)
     out /= np.asarray(config.std, np.float32)
     return np.ascontiguousarray(out.transpose(0, 3, 1, 2))

@@ -6,7 +6,7 @@ A benchmark directory holds ``bench.json`` (source, settings, object → split, 
 
 DynTAC-Sim-Bench (``source="sim"``) is the project's stand-in for the paper's DynTAC-Bench, *not*
 the paper's data: novel objects at test time, and one sensor style held out entirely for a second
-test file (``test_heldout_sensor.jsonl``).
+test file (``test_heldout_sensor.jsonl``) and a val file (``val_heldout_sensor.jsonl``, to choose on).
 """
 
 from __future__ import annotations
@@ -26,7 +26,8 @@ from tacreasoner.tasks.vocab import get_vocabulary
 
 SOURCES = ("sim", "physiclear", "vtv150k")
 BENCH_INFO = "bench.json"
-HELDOUT_SENSOR_FILE = "test_heldout_sensor.jsonl"
+HELDOUT_SENSOR_SPLITS = ("val_heldout_sensor", "test_heldout_sensor")
+"""The held-out sensor style's val and test objects: ``<split>.jsonl`` in a benchmark folder beside the others."""
 BENCH_VERSION = 2
 """2: TSA's letters balance within each question wording (in version 1 answering each of its three wordings with
 one fixed letter scored 65% on the quickstart's val and test items; docs/benchmark.md). Other tasks are unchanged."""
@@ -201,18 +202,22 @@ def build_bench(source: str, data: str | Path, out_dir: str | Path, *, seed: int
             continue
         files[split] = _build_split(split_clips, tasks, vocabulary, split, seed, per_task, source, notes)
     if held is not None:
-        test_objects = {o for o, s in split_of.items() if s == "test"}
-        held_clips = [c for c in clips if c.sensor == held and c.object_id in test_objects]
-        items = _build_split(held_clips, all_tasks, vocabulary, "test", seed + 1, per_task, source, notes)
-        for item in items:
-            item.id = f"{item.id}-{held}"
-            item.meta["heldout_sensor"] = held
-        files["test_heldout_sensor"] = items
-        objects["test_heldout_sensor"] = len({c.object_id for c in held_clips})
+        # The held-out style seen on val objects too (val_heldout_sensor: where a recipe for unseen sensors is
+        # chosen) and on test objects (test_heldout_sensor: reported once, beside test).
+        for offset, split in ((1, "test"), (2, "val")):
+            split_objects = {o for o, s in split_of.items() if s == split}
+            held_clips = [c for c in clips if c.sensor == held and c.object_id in split_objects]
+            if not held_clips:
+                continue
+            items = _build_split(held_clips, all_tasks, vocabulary, split, seed + offset, per_task, source, notes)
+            for item in items:
+                item.id = f"{item.id}-{held}"
+                item.meta["heldout_sensor"] = held
+            files[f"{split}_heldout_sensor"] = items
+            objects[f"{split}_heldout_sensor"] = len({c.object_id for c in held_clips})
     for name, items in files.items():
         _relative_paths(items, data)
-        path = out / (HELDOUT_SENSOR_FILE if name == "test_heldout_sensor" else f"{name}.jsonl")
-        write_jsonl(items, path)
+        write_jsonl(items, out / f"{name}.jsonl")
         counts[name] = dict(sorted(Counter(i.task for i in items).items()))
 
     info = {
@@ -281,7 +286,8 @@ def build_folder_bench(data: str | Path, out_dir: str | Path, *, split: str | No
 
 
 def load_bench(bench_dir: str | Path, split: str = "test") -> tuple[dict, list[QAItem]]:
-    """``bench.json`` and the items of one split (``test_heldout_sensor`` for the held-out sensor file)."""
+    """``bench.json`` and the items of one split (``val_heldout_sensor``/``test_heldout_sensor``: the held-out
+    sensor's files)."""
     from tacreasoner.tasks.formats import read_jsonl
 
     root = Path(bench_dir)
@@ -289,8 +295,7 @@ def load_bench(bench_dir: str | Path, split: str = "test") -> tuple[dict, list[Q
     if not info_path.exists():
         raise FileNotFoundError(f"{root}: not a benchmark directory (no {BENCH_INFO}; run `tacreasoner build-bench`)")
     info = json.loads(info_path.read_text())
-    name = HELDOUT_SENSOR_FILE if split == "test_heldout_sensor" else f"{split}.jsonl"
-    path = root / name
+    path = root / f"{split}.jsonl"
     if not path.exists():
         available = sorted(p.stem for p in root.glob("*.jsonl"))
         raise FileNotFoundError(f"{path}: no such split; available: {', '.join(available)}")
@@ -316,7 +321,7 @@ def reword_bench(bench_dir: str | Path, out_dir: str | Path | None = None, *, wo
     counts: dict[str, dict[str, int]] = {}
     written: dict[str, list[QAItem]] = {}
     for split in splits:
-        path = src / (HELDOUT_SENSOR_FILE if split == "test_heldout_sensor" else f"{split}.jsonl")
+        path = src / f"{split}.jsonl"
         if not path.is_file():
             continue
         _, items = load_bench(src, split)
@@ -326,7 +331,7 @@ def reword_bench(bench_dir: str | Path, out_dir: str | Path | None = None, *, wo
         raise ValueError(f"{src}: none of the splits {', '.join(splits)} is there to re-word")
     out.mkdir(parents=True, exist_ok=True)
     for split, items in written.items():
-        write_jsonl(items, out / (HELDOUT_SENSOR_FILE if split == "test_heldout_sensor" else f"{split}.jsonl"))
+        write_jsonl(items, out / f"{split}.jsonl")
     for stale in (p for p in out.glob("*.jsonl") if p.stem not in written and out != src):
         stale.unlink()
     info.update(wording=wording, counts=counts, name=f"{info.get('name', info.get('source'))}, {wording} wordings")

@@ -75,18 +75,32 @@ def asked(task: str, question: str, vocabulary: str) -> dict[str, Any] | None:
 
 PROPERTY_WORDS: dict[str, tuple[str, ...]] = {
     "hardness": ("hard", "soft", "firm", "stiff", "rigid", "squish", "squash", "spongy", "yield", "give way",
-                 "compress", "squeez", "pliab", "mushy", "solid", "tough", "deform"),
+                 "compress", "squeez", "pliab", "mushy", "solid", "tough", "deform",
+                 # second version (2026-11-29, a thesaurus pass before the third held-out set was read):
+                 "dent", "it give", "it gives", "give when", "gives when", "give under", "gives under", "any give",
+                 "press in", "presses in", "push in", "pushes in", "sink in", "sinks in", "cave", "cushion", "plush",
+                 "squidg", "malleab", "crush", "dense", "unyield", "flimsy", "sturdy", "doughy", "pillow"),
     "roughness": ("rough", "smooth", "coarse", "grit", "grain", "textur", "sandpaper", "scratchy", "abrasiv",
-                  "polish", "silk"),
+                  "polish", "silk",
+                  "rasp", "sandy", "scratch", "scrap", "prickl", "sleek", "gloss", "velvet", "satin", "fuzz", "harsh"),
     "bumpiness": ("bump", "lump", "ridge", "flat", "uneven", "knob", "nubb", "bobbl", "raised", "dimpl", "pimpl",
-                  "stud"),
-    "protrusion": ("protru", "stick out", "sticks out", "bump", "lump", "ridge", "flat", "uneven", "knob", "raised"),
-    "elasticity": ("elastic", "spring", "bounc", "rebound", "stretch", "resilien"),
-    "friction": ("friction", "slip", "grip", "sticky", "slick", "slid", "tacky", "traction"),
+                  "stud",
+                  "pebbl", "nodul", "wart", "hump", "ribbed", "corrugat", "wavy", "pitted", "pock", "bulg",
+                  "stick up", "sticks up", "poke up", "pokes up", "stand out", "stands out"),
+    "protrusion": ("protru", "stick out", "sticks out", "bump", "lump", "ridge", "flat", "uneven", "knob", "raised",
+                   "stick up", "sticks up", "poke", "jut", "bulg", "stand out", "stands out", "spike", "nub", "hump",
+                   "pointy"),
+    "elasticity": ("elastic", "spring", "bounc", "rebound", "stretch", "resilien",
+                   "snap back", "snaps back", "come back", "comes back", "recover", "rubber", "flexib", "jiggl",
+                   "wobbl", "original shape", "its shape"),
+    "friction": ("friction", "slip", "grip", "sticky", "slick", "slid", "tacky", "traction",
+                 "glide", "glid", "drag", "greas", "oily", "skid", "cling", "grab"),
 }
 """Words (stems: a word starting with one counts) a person uses for each property, from general English, written
-before any evaluation wording was run through it (experiments/2026-11-29_read_single_clip/criteria.md). Where a
-vocabulary has no roughness, its friction takes the roughness words (VTV-150K words friction as rough/smooth)."""
+before any evaluation wording was run through it (experiments/2026-11-29_read_single_clip/criteria.md); the second
+version's words (a thesaurus pass) before the third held-out set, written by someone who had not read this list, was
+read (experiments/2026-11-29_person_words). Where a vocabulary has no roughness, its friction takes the roughness
+words (VTV-150K words friction as rough/smooth)."""
 _WHOLE_OBJECT = re.compile(r"\b(feels?\s+like|profile|properties|describe\s+(what|how|this|the)|how\s+does\s+(it|this)"
                            r"\s+(\w+\s+)?feel|what\s+do\s+you\s+feel)\b", re.IGNORECASE)
 

@@ -30,10 +30,12 @@ __all__ = ["HELDOUT_WORDINGS", "PARAPHRASE_DIR", "WORDINGS", "Paraphrase", "chec
            "load_paraphrases", "normalise", "reword", "reword_items", "trained_wording_of"]
 
 PARAPHRASE_DIR = Path(__file__).parent / "paraphrases"
-WORDINGS = ("train", "heldout", "heldout2")
-HELDOUT_WORDINGS = ("heldout", "heldout2")
+WORDINGS = ("train", "heldout", "heldout2", "heldout3")
+HELDOUT_WORDINGS = ("heldout", "heldout2", "heldout3")
 """Held-out sets: never trained on. ``heldout2`` (2026-11-29) was written after the stepwise modes' property lexicon
-(``tasks.conclude.asked_properties``) and never run through it before it was measured."""
+(``tasks.conclude.asked_properties``) and never run through it before it was measured; ``heldout3`` (later that day)
+was written by someone who had not read the lexicon, and read only after its second version was committed: the
+``auto`` answering mode is decided on it (experiments/2026-11-29_person_words)."""
 FIELDS = frozenset({"id", "text", "attribute", "answer"})
 LETTER_TASKS = ("SFD", "SOI")
 """Tasks whose ``the first/second/third object`` answers a lettered wording turns into ``A``/``B``/``C``."""
@@ -82,9 +84,9 @@ def _parse(path: Path) -> dict[str, tuple[Paraphrase, ...]]:
     return {k: tuple(v) for k, v in out.items()}
 
 
-@lru_cache(maxsize=4)
+@lru_cache(maxsize=8)
 def load_paraphrases(wording: str, directory: str | None = None) -> Mapping[str, tuple[Paraphrase, ...]]:
-    """The ``train``, ``heldout`` or ``heldout2`` wordings by template kind."""
+    """The ``train`` or a held-out set's wordings by template kind."""
     if wording not in WORDINGS:
         raise ValueError(f"unknown wording set {wording!r}; choose from {', '.join(WORDINGS)}")
     return _parse(Path(directory or PARAPHRASE_DIR) / f"{wording}.yaml")
