@@ -16,7 +16,7 @@ average is above ``as_is``'s in every seed; the issue's target is the held-out s
 style (val). ``--split-suffix test`` reads the test objects instead, once, after the choice.
 
     python benchmarks/sensor_transfer.py --bench runs/sens/bench --out runs/sens/eval \\
-        --models runs/qs_stepwise/model runs/qs_stepwise/train/seed1/stage2/model runs/qs_stepwise/train/seed2/stage2/model
+        --models runs/qs_stepwise/model runs/qs_stepwise/train/seed{1,2}/stage2/model
 """
 
 from __future__ import annotations

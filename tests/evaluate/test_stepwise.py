@@ -321,8 +321,31 @@ def test_only_the_benchmarks_and_trainings_own_wordings_count_as_trained() -> No
     items = build_items(make_clips(n_objects=12, repeats=2), tasks=["TFA-hardness", "TFA-combined", "SFD", "PC", "SOI"],
                         vocabulary="physiclear", split="val", seed=0)
     assert all(trained_wording_of(i.question) is not None for i in items)
-    for wording in ("heldout", "heldout2"):
+    for wording in ("heldout", "heldout2", "heldout3"):
         assert all(trained_wording_of(i.question) is None for i in reword_items(items, wording))
     # a bare "<tactile>\n{attribute}?" training wording matches a property name there, not any question
     assert trained_wording_of("<tactile>\nhardness?") == "tr_tfa_rate_short"
     assert trained_wording_of("<tactile>\nIs it springy?") is None
+
+
+@pytest.mark.parametrize("vocabulary", ["physiclear", "vtv150k"])
+def test_auto_answers_trained_wordings_in_one_pass_and_a_persons_stepwise(vocabulary: str) -> None:
+    """``auto``: every benchmark-worded item (comparisons included) goes to one pass; the same items in held-out
+    words are read stepwise exactly as ``stepwise-vote`` reads them."""
+    from tacreasoner.evaluate.predict import _question_views, check_answers
+    from tacreasoner.evaluate.stepwise import VOTE_TEMPLATES, free_question_view, reading_templates
+    from tacreasoner.tasks.paraphrase import reword_items
+
+    tasks = ["TFA-hardness", "TFA-combined", "SFD", "SOI", *(["PC"] if vocabulary == "physiclear" else [])]
+    items = build_items(make_clips(n_objects=12, repeats=2), tasks=tasks, vocabulary=vocabulary, split="val", seed=0)
+    assert check_answers("auto") == "auto" and reading_templates("auto") == VOTE_TEMPLATES
+    assert _question_views(items, "auto") == {}
+    vote = _question_views(items, "stepwise-vote")
+    assert {i.task for i in items if i.id in vote} >= {"SFD", "SOI"}
+    worded = reword_items(items, "heldout3")
+    assert worded and _question_views(worded, "auto") == _question_views(worded, "stepwise-vote") != {}
+    question = "<tactile>\n<tactile>\nWhich one is softer?"
+    assert free_question_view(question, 2, vocabulary, True, trained_one_pass=True) is not None
+    trained = items[[i.task for i in items].index("SFD")].question
+    assert free_question_view(trained, 2, vocabulary, True, trained_one_pass=True) is None
+    assert free_question_view(trained, 2, vocabulary, True) is not None

@@ -158,6 +158,13 @@ def test_ask_stepwise_reads_each_video_and_shows_the_readings(served_model: Path
     read = json.loads(firm.stdout)
     assert read["answer"] in ("soft", "moderately hard", "hard") and read["timings"]["steps"] == 4
     assert read["think"].startswith("Video 1: ")
+    # a question touch cannot answer gets a reply that says so, not a level word, and runs no pass
+    for mode in ("stepwise-vote", "auto"):
+        colour = CliRunner().invoke(app, ["ask", "What colour is this? <tactile>", "--video", str(clip_files[0]),
+                                          "--model", str(served_model), "--answers", mode, "--json"])
+        told = json.loads(colour.stdout)
+        assert told["answer"] == "I can't tell its colour from touch." and told["timings"]["steps"] == 0
+        assert "does not sense colour" in told["think"]
     bad = CliRunner().invoke(app, [*base, "--vocabulary", "octopi"])
     assert bad.exit_code == 2 and "unknown vocabulary 'octopi'" in bad.output
 
@@ -166,7 +173,7 @@ def test_ask_stepwise_reads_each_video_and_shows_the_readings(served_model: Path
     (["--decode-timeout", "0"], "error: --decode-timeout must be above 0, got 0"),
     (["--max-request-mb", "0"], "error: --max-request-mb must be above 0, got 0"),
     (["--max-request-mb", "-1"], "error: --max-request-mb must be above 0, got -1"),
-    (["--answers", "twice"], "error: answers must be one of direct, stepwise, stepwise-vote; got 'twice'"),
+    (["--answers", "twice"], "error: answers must be one of direct, stepwise, stepwise-vote, auto; got 'twice'"),
 ])
 def test_serve_refuses_at_start_what_would_fail_every_request(tmp_path: Path, options: list[str], said: str) -> None:
     result = CliRunner().invoke(app, ["serve", "--model", str(tmp_path), "--port", str(free_port()), *options])

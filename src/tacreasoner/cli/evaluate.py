@@ -84,7 +84,8 @@ Answers = Annotated[str, typer.Option(
     "--answers", help="direct: every question in one pass; stepwise: a question over several objects is answered by "
                       "reading each video (and each named object, each scenario's needs) in a pass of its own and "
                       "concluding by the rule (evaluate/stepwise.py); its reply shows the readings; stepwise-vote: "
-                      "each video read in every single-clip wording, the majority level.")]
+                      "each video read in every single-clip wording, the majority level; auto: a question in a "
+                      "wording the model was trained on in one pass, any other as stepwise-vote.")]
 
 
 @app.command("evaluate")
@@ -161,7 +162,7 @@ def evaluate_physiclear_cmd(
     wording: Annotated[str, typer.Option(
         "--wording", help="benchmark: the benchmark's question templates; heldout: the same items asked in wordings "
                           "no training used (tasks/paraphrases/heldout.yaml; tasks without one are left out); "
-                          "heldout2: a second such set (heldout2.yaml).")
+                          "heldout2, heldout3: later such sets (heldout2.yaml, heldout3.yaml).")
                        ] = "benchmark",
     answers: Answers = "stepwise-vote",
 ) -> None:

@@ -28,7 +28,8 @@ Answers = Annotated[str, typer.Option(
                       "reading each video in a pass of its own and concluding by rule, the readings shown (other "
                       "questions, and sampled ones, in one pass); stepwise-vote: each video read in every "
                       "single-clip wording, the majority level (how evaluate-physiclear answers; recommended for a "
-                      "PhysiCLeAR model).")]
+                      "PhysiCLeAR model); auto: a question in a wording the model was trained on in one pass, any "
+                      "other as stepwise-vote.")]
 Vocabulary = Annotated[str, typer.Option(
     "--vocabulary", help="With --answers stepwise[-vote]: the level words the model was trained on (physiclear: "
                          "soft / moderately hard / hard …; vtv150k: DynTAC-Sim's).")]

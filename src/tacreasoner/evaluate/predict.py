@@ -28,10 +28,11 @@ __all__ = ["ANSWER_DTYPES", "ANSWER_MODES", "TOUCH_MODES", "answer_with_model", 
            "check_answers", "check_dtype", "check_touch", "load_trained", "predict_items", "predict_split",
            "predictions_path", "resolve_dtype", "set_aside_stale", "shuffle_videos", "steps_path"]
 
-ANSWER_MODES = ("direct", "stepwise", "stepwise-vote")
+ANSWER_MODES = ("direct", "stepwise", "stepwise-vote", "auto")
 """How questions over several objects are answered: one pass (``direct``), or one pass per video and named object
 and the conclusion by the rule (``stepwise``: :mod:`tacreasoner.evaluate.stepwise`); ``stepwise-vote`` reads each
-video in every single-clip wording and takes the majority level."""
+video in every single-clip wording and takes the majority level; ``auto``: a question in a wording the model was
+trained on in one pass, any other as ``stepwise-vote`` (``stepwise.TRAINED_ONE_PASS_MODES``)."""
 TOUCH_MODES = ("real", "blank", "shuffled")
 """What the model gets as touch: the item's own videos, a featureless clip, or other items' videos."""
 
@@ -350,9 +351,10 @@ def _question_views(items: Sequence[QAItem], answers: str) -> dict[str, QAItem]:
     """id → the stepwise mode's view of each item it answers (the others, single-clip questions (unless the mode
     reads those in untrained words: ``SINGLE_CLIP_MODES``) and comparisons whose words do not say what they ask, are
     answered in one pass)."""
-    from tacreasoner.evaluate.stepwise import SINGLE_CLIP_MODES, question_view
+    from tacreasoner.evaluate.stepwise import SINGLE_CLIP_MODES, TRAINED_ONE_PASS_MODES, question_view
 
-    views = {item.id: question_view(item, single_clip=answers in SINGLE_CLIP_MODES) for item in items}
+    views = {item.id: question_view(item, single_clip=answers in SINGLE_CLIP_MODES,
+                                    trained_one_pass=answers in TRAINED_ONE_PASS_MODES) for item in items}
     return {item_id: view for item_id, view in views.items() if view is not None}
 
 

@@ -42,6 +42,7 @@ from tacreasoner.tasks.conclude import (
     Levels,
     asked,
     asked_properties,
+    beyond_touch,
     implied_answers,
     labelled_levels,
     needed_attributes,
@@ -55,8 +56,8 @@ from tacreasoner.tasks.scoring import TSA_LETTERS
 from tacreasoner.tasks.templating import load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
 
-__all__ = ["SINGLE_CLIP_MODES", "STEP_TOKENS", "VOTE_TEMPLATES", "Step", "Stepwise", "conclude", "free_question_view",
-           "question_view", "reading_templates", "steps_for"]
+__all__ = ["SINGLE_CLIP_MODES", "STEP_TOKENS", "TRAINED_ONE_PASS_MODES", "VOTE_TEMPLATES", "Step", "Stepwise",
+           "conclude", "free_question_view", "question_view", "reading_templates", "steps_for"]
 
 STEP_TOKENS = 96
 """Reply budget of one sub-question: a reading is a level word (~5 tokens), three named objects' levels ~40, a
@@ -67,10 +68,15 @@ READING_TEMPLATE = "tfa_choices"
 """The single-clip wording each video is read with: it lists the level words, so the reply is one of them."""
 VOTE_TEMPLATES = ("tfa_choices", "tfa_level", "tfa_describe", "tfa_feel")
 """``stepwise-vote``: every single-clip wording of ``tasks/templates/tfa.yaml``, the level taken by majority."""
-SINGLE_CLIP_MODES: tuple[str, ...] = ("stepwise-vote",)
+SINGLE_CLIP_MODES: tuple[str, ...] = ("stepwise-vote", "auto")
 """Answering modes that answer a one-clip question in words the model was not trained on from the clip's reading
 (the properties read from its words by ``tasks.conclude.asked_properties``); questions in a trained wording stay one
 pass (experiments/2026-11-29_read_single_clip/decision.md)."""
+TRAINED_ONE_PASS_MODES: tuple[str, ...] = ("auto",)
+"""Answering modes that answer every question in a wording the model was trained on (a benchmark template or a
+training paraphrase) in one pass, comparisons included, and read the others stepwise: for a model whose one pass
+compares well in its own words (the DynTAC-Sim quickstart's) but not in a person's (experiments/
+2026-11-29_person_words)."""
 _OPTION = re.compile(r"\(([A-C])\)[^:\n(]*:\s*([^.\n(]*)")
 """``(A) lemon: soft, …`` in a reply listing all three named objects on one line: a span stops at the next ``(``."""
 
@@ -119,11 +125,14 @@ def _single_clip_view(item: QAItem) -> QAItem | None:
     return dataclasses.replace(item, task=task, answer="?", gold=gold, meta={}, objects=[])
 
 
-def question_view(item: QAItem, single_clip: bool = False) -> QAItem | None:
+def question_view(item: QAItem, single_clip: bool = False, trained_one_pass: bool = False) -> QAItem | None:
     """``item`` as the mode may see it: the question, its videos and options, and what the question asks read from
     its words (:func:`tacreasoner.tasks.conclude.asked`), with no gold answer, gold levels or scenario needs. None when
     the words do not say what is asked (the item is then answered in one pass). ``single_clip``: a question about
-    one clip is answered from its reading too (its properties read from the words), else in one pass."""
+    one clip is answered from its reading too (its properties read from the words), else in one pass.
+    ``trained_one_pass``: a question in a trained wording is answered in one pass (None)."""
+    if trained_one_pass and trained_wording_of(item.question) is not None:
+        return None
     if item.task.startswith("TFA"):
         return _single_clip_view(item) if single_clip else None
     if item.task not in REASONED_TASKS:
@@ -145,13 +154,16 @@ _ORDINAL_OPTION = re.compile(r"^the (first|second|third) (object|one)$", re.IGNO
 _SCENARIO = re.compile(r"(?:suited for|an object for|imagine)\s+(.+?)\s*[.?](?:\s|$)", re.IGNORECASE)
 
 
-def free_question_view(question: str, videos: int, vocabulary: str, single_clip: bool = False) -> QAItem | None:
+def free_question_view(question: str, videos: int, vocabulary: str, single_clip: bool = False,
+                       trained_one_pass: bool = False) -> QAItem | None:
     """A person's question over ``videos`` tactile videos as the stepwise mode's view, read from its words alone:
     a scenario with options "(A) the first object (B) the second object" (TSA), named options, one per video (OSC),
     "more, less or similar" over two videos (PC), a comparative over two (SFD) or a superlative over three (SOI);
     over one video with ``single_clip``, the properties it asks for (TFA). None when it is none of these (answered in
-    one pass)."""
+    one pass); with ``trained_one_pass`` also a question in a trained wording."""
     if question.count(PLACEHOLDER) != videos or videos < 1:
+        return None
+    if trained_one_pass and trained_wording_of(question) is not None:
         return None
     options = [o.strip().rstrip(".?") for _, o in _OPTIONS.findall(question)]
     meta: dict[str, Any] = {}
@@ -159,6 +171,8 @@ def free_question_view(question: str, videos: int, vocabulary: str, single_clip:
     if videos == 1:
         if single_clip and (asked_here := _one_clip_asked(question, vocabulary)) is not None:
             task, gold = asked_here
+        elif single_clip and (thing := beyond_touch(question, vocabulary)) is not None:
+            task, gold = "TFA-combined", {"attributes": [], "beyond_touch": thing}
     elif options and all(_ORDINAL_OPTION.match(o) for o in options):
         found = _SCENARIO.search(question.replace(PLACEHOLDER, " "))
         if found and len(options) == videos == 2:
@@ -217,6 +231,10 @@ def steps_for(item: QAItem, videos: Sequence[VideoKey], templates: Sequence[str]
     return steps
 
 
+def _listed(words: Sequence[str]) -> str:
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}"
+
+
 def _said(reply: str) -> str:
     """The answer part of a sub-reply (the whole reply when it has no ``<answer>``)."""
     return extract_answer(reply, "lenient") or reply
@@ -243,8 +261,9 @@ def _answer_text(item: QAItem, answer: Any) -> str:
 
 
 def reading_templates(answers: str) -> tuple[str, ...]:
-    """The single-clip wordings each video is read in for an answering mode: all of them for ``stepwise-vote``."""
-    return VOTE_TEMPLATES if answers == "stepwise-vote" else (READING_TEMPLATE,)
+    """The single-clip wordings each video is read in for an answering mode: all of them for ``stepwise-vote`` and
+    ``auto``."""
+    return VOTE_TEMPLATES if answers in ("stepwise-vote", "auto") else (READING_TEMPLATE,)
 
 
 def _vote(ranks: Sequence[int | None]) -> int | None:
@@ -263,6 +282,10 @@ def conclude(item: QAItem, videos: Sequence[VideoKey], replies: Mapping[str, str
     """The reply to ``item`` (a :func:`question_view`) composed from its sub-questions' ``replies`` (key → reply);
     each video's level is the majority over ``templates``' readings (:func:`_vote`)."""
     vocab = get_vocabulary(item.vocabulary)
+    if item.gold.get("beyond_touch"):  # nothing to read: say what touch does tell
+        thing = item.gold["beyond_touch"]
+        return Stepwise(f"<think>A tactile sensor feels {_listed(list(vocab))}; it does not sense {thing}.</think>"
+                        f"<answer>I can't tell its {thing} from touch.</answer>", [])
     steps = steps_for(item, videos, templates)
     guessed: list[str] = []
     levels: list[Levels] = []

@@ -17,6 +17,7 @@ from tacreasoner.evaluate.stepwise import (
     READING_TEMPLATE,
     SINGLE_CLIP_MODES,
     STEP_TOKENS,
+    TRAINED_ONE_PASS_MODES,
     conclude,
     free_question_view,
     reading_templates,
@@ -41,7 +42,7 @@ def answer_view(engine: TactileEngine, view: QAItem, videos: Sequence[Any],
     start = time.perf_counter()
     sampling = Sampling(max_new_tokens=STEP_TOKENS)
     replies = engine.complete_batch([Prompt.ask(s.question, [video_of[k] for k in s.videos]) for s in steps],
-                                    [sampling] * len(steps), timeout_s=timeout_s)
+                                    [sampling] * len(steps), timeout_s=timeout_s) if steps else []
     composed = conclude(view, keys, {s.key: r.text for s, r in zip(steps, replies, strict=True)}, templates)
     reasoning, content = split_channels(composed.reply)  # as a served reply's two channels
     total = time.perf_counter() - start
@@ -62,9 +63,9 @@ def answer_stepwise(engine: TactileEngine, question: str, videos: Sequence[Any],
 
 
 class StepwiseAnswerer:
-    """How ``ask``, a server or the demo answers: ``direct`` (every question in one pass), ``stepwise`` or
-    ``stepwise-vote`` (a question it reads, greedy; on a server or the demo a sampled request keeps its one sampled
-    pass, since the readings and the rule are deterministic)."""
+    """How ``ask``, a server or the demo answers: ``direct`` (every question in one pass), ``stepwise``,
+    ``stepwise-vote`` or ``auto`` (a question it reads, greedy; on a server or the demo a sampled request keeps its
+    one sampled pass, since the readings and the rule are deterministic)."""
 
     def __init__(self, answers: str = "direct", vocabulary: str = "physiclear") -> None:
         from tacreasoner.evaluate.predict import check_answers
@@ -84,7 +85,8 @@ class StepwiseAnswerer:
                 any(m["role"] == "assistant" for m in prompt.messages):
             return None
         return free_question_view(users[0]["content"], len(prompt.videos), self.vocabulary,
-                                  single_clip=self.answers in SINGLE_CLIP_MODES)
+                                  single_clip=self.answers in SINGLE_CLIP_MODES,
+                                  trained_one_pass=self.answers in TRAINED_ONE_PASS_MODES)
 
     def answer(self, engine: TactileEngine, view: QAItem, videos: Sequence[Any],
                timeout_s: float | None = None) -> Reply:

@@ -30,10 +30,26 @@ from tacreasoner.tasks.schema import PC_RELATIONS, PLACEHOLDER, QAItem
 from tacreasoner.tasks.scoring import TSA_LETTERS, _find_phrases, score_item
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
-__all__ = ["PROPERTY_WORDS", "REASONED_TASKS", "Consistency", "Levels", "asked", "asked_properties", "consistency",
-           "implied_answers", "item_levels",
-           "labelled_levels", "needed_attributes", "option_levels", "parsed_answer", "read_levels", "read_needs",
-           "stated_levels"]
+__all__ = [
+    "BEYOND_TOUCH",
+    "PROPERTY_WORDS",
+    "REASONED_TASKS",
+    "Consistency",
+    "Levels",
+    "asked",
+    "asked_properties",
+    "beyond_touch",
+    "consistency",
+    "implied_answers",
+    "item_levels",
+    "labelled_levels",
+    "needed_attributes",
+    "option_levels",
+    "parsed_answer",
+    "read_levels",
+    "read_needs",
+    "stated_levels",
+]
 
 REASONED_TASKS = ("SFD", "PC", "SOI", "OSC", "TSA")
 """Tasks over several objects whose answer follows from per-object levels."""
@@ -121,6 +137,33 @@ def asked_properties(question: str, vocabulary: str) -> list[str] | None:
     if found:
         return found
     return list(vocab) if _WHOLE_OBJECT.search(text) else None
+
+
+BEYOND_TOUCH: dict[str, tuple[str, ...]] = {
+    "colour": ("colour", "color"),
+    "smell": ("smell", "odour", "odor", "scent"),
+    "taste": ("taste", "flavour", "flavor"),
+    "weight": ("weigh", "heavy", "heavi", "how light"),
+    "temperature": ("temperature", "hot", "cold", "warm"),
+    "sound": ("sound", "noise", "loud"),
+    "price": ("price", "cost", "expensive", "cheap"),
+    "brand": ("brand", "who made", "manufactur"),
+}
+"""What a person may ask about an object that a vision-based tactile sensor does not sense (its gel images show
+contact geometry and shear, not colour, smell, weight or heat): stems, as :data:`PROPERTY_WORDS`."""
+_REAL_OR_FAKE = re.compile(r"\b(real|fake|artificial|plastic|genuine)\b", re.IGNORECASE)
+
+
+def beyond_touch(question: str, vocabulary: str) -> str | None:
+    """What a question asks that touch cannot tell (:data:`BEYOND_TOUCH`: "What colour is this?" → ``colour``), when
+    it asks for none of the properties (:func:`asked_properties`) and not whether the object is real; else None."""
+    text = question.replace(PLACEHOLDER, " ")
+    if asked_properties(text, vocabulary) is not None or _REAL_OR_FAKE.search(text):
+        return None
+    for thing, words in BEYOND_TOUCH.items():
+        if re.search(r"\b(" + "|".join(re.escape(w) for w in words) + ")", text, re.IGNORECASE):
+            return thing
+    return None
 
 
 def needed_attributes(item: QAItem) -> list[str]:
