@@ -14,6 +14,7 @@ share of checkable reasoning that contradicts itself or the question, and per se
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
@@ -21,12 +22,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, pct, pm, publish, stamp
 from tacreasoner.evaluate.report import Report, compare_runs, load_scored, summarize
 
-SUFFIX = "-heldout"
+SUFFIX = re.compile(r"-heldout\d*$")
+"""What ``paraphrase-bench`` appends to an item's id (``-heldout``, ``-heldout2``, …)."""
 
 
 def paired_records(template: Path, heldout: Path) -> tuple[list[dict], list[dict]]:
     """The template records of the items the held-out file asks, and the held-out records under the same ids."""
-    held = [{**r, "id": r["id"].removesuffix(SUFFIX)} for r in load_scored(heldout)]
+    held = [{**r, "id": SUFFIX.sub("", r["id"])} for r in load_scored(heldout)]
     asked = {r["id"] for r in held}
     base = [r for r in load_scored(template) if r["id"] in asked]
     if len(base) != len(held):
@@ -54,6 +56,7 @@ def main() -> None:
     ap.add_argument("--name", default="dyntac_wordings_val", help="result file stem under benchmarks/results")
     ap.add_argument("--machine", default="", help="where the models were trained and answered")
     ap.add_argument("--notes", default="", help="what was run and how")
+    ap.add_argument("--wording", default="heldout", help="the held-out set asked (tasks/paraphrases/<it>.yaml)")
     args = ap.parse_args()
     pairs = {}
     for spec in args.seed:
@@ -81,7 +84,7 @@ def main() -> None:
     md = header_md("DynTAC-Sim val in the benchmark's wordings and in held-out wordings, same items", info)
     md += (f"- Trained and answered on: {args.machine}\n" if args.machine else "") + (
         f"- Notes: {args.notes}\n" if args.notes else "") + f"- Seeds: {', '.join(map(str, pairs))}; split: val\n\n"
-    md += ("Held-out wordings: `tasks/paraphrases/heldout.yaml`, never used in training (`tacreasoner "
+    md += (f"Held-out wordings: `tasks/paraphrases/{args.wording}.yaml`, never used in training (`tacreasoner "
            "paraphrase-bench`); tasks without one are left out, and the benchmark-wording column is cut to the same "
            "items. Asked form: strict extraction found a value of the asked kind in `<answer>…</answer>`. "
            "Contradicts: replies whose reasoning names another object or concludes another value than their answer, "
@@ -91,7 +94,7 @@ def main() -> None:
     md += "\nPaired per seed (exact McNemar, all items): " + "; ".join(
         f"seed {t['seed']} p = {t['p']:.2g} ({t['template_only_right']} right only in the benchmark's wordings, "
         f"{t['heldout_only_right']} only in held-out)" for t in tests) + ".\n"
-    payload = {**info, "machine_trained": args.machine, "notes": args.notes, "split": "val",
+    payload = {**info, "machine_trained": args.machine, "notes": args.notes, "split": "val", "wording": args.wording,
                "benchmark_wordings": base.to_dict(), "heldout_wordings": held.to_dict(), "paired": tests}
     publish(args.name, payload, md)
 

@@ -89,6 +89,7 @@ def test_encoder_get_writes_an_appearance_folder_that_loads(tmp_path: Path) -> N
     assert result.exit_code == 0, result.output
     video = json.loads((out / "video_processing.json").read_text())
     assert video["background"] == "keep" and video["mean"] == [0.485, 0.456, 0.406] and video["num_frames"] == 4
+    assert video["orientation"] == "match", "a DIGIT's portrait frames are turned by default"
     loaded = load_appearance(out)
     assert isinstance(loaded, EfficientNetAppearance) and loaded.config.hidden_size == 320
     reference = EfficientNetAppearance(loaded.config)
@@ -102,6 +103,9 @@ def test_encoder_get_writes_an_appearance_folder_that_loads(tmp_path: Path) -> N
     bad = CliRunner().invoke(app, ["encoder", "get", "efficientnet-lite0", "--out", str(tmp_path / "x"),
                                    "--size", "big"])
     assert bad.exit_code == 2 and "expected HEIGHTxWIDTH" in bad.stderr
+    bad = CliRunner().invoke(app, ["encoder", "get", "efficientnet-lite0", "--out", str(tmp_path / "x"),
+                                   "--colour", "magnitude"])
+    assert bad.exit_code == 2 and "colour 'magnitude' needs background 'subtract'" in bad.stderr
 
 
 def test_config_checks_name_the_field() -> None:
