@@ -66,6 +66,7 @@ class StepMeter:
         self.counted: tuple[float, float] | None = None
         self.profiler: Any = None
         self.profile: list[dict[str, Any]] | None = None
+        self.skip_next = False
         self.last_elapsed = 0.0
 
     def __call__(self, record: dict[str, Any]) -> None:
@@ -84,6 +85,9 @@ class StepMeter:
                 self.profiler.stop()
                 self.profile = op_times(self.profiler)
                 self.profiler = None
+                self.skip_next = True  # the summing-up above lands in the next step's elapsed time
+        elif self.skip_next:
+            self.skip_next = False
         elif self.step >= WARMUP:
             self.rates.append(record["tokens_per_s"])
             self.seconds.append(seconds)
