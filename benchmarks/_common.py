@@ -12,6 +12,7 @@ import shlex
 import shutil
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -119,3 +120,18 @@ def quickstart_stage_config(run: Path, stage: int, steps: int, output_dir: Path)
         for name in ("run.json", "train_log.jsonl"):
             shutil.copy(stage1 / name, target / name)
     return config
+
+
+def clip_cls_tokens(encoder: Any, clips: list, video: Any, batch: int = 16) -> Any:
+    """Each clip's first appearance token (the CLS the LLM receives) from a frozen ``encoder``, its frames prepared
+    as ``video`` says, in batches without gradients: the feature the encoder probes read."""
+    import torch
+
+    from tacreasoner.model.video_processing import preprocess_video
+
+    out = []
+    with torch.no_grad():
+        for start in range(0, len(clips), batch):
+            x = torch.from_numpy(np.stack([preprocess_video(c, video) for c in clips[start:start + batch]]))
+            out.append(encoder(x)[:, 0].double().numpy())
+    return np.concatenate(out)

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, md_table, publish, stamp
+from _common import clip_cls_tokens, header_md, md_table, publish, stamp
 
 PHYSICLEAR_ATTRIBUTES = ("hardness", "roughness", "bumpiness")
 SIM_ATTRIBUTES = ("hardness", "protrusion", "elasticity", "friction")
@@ -97,21 +97,14 @@ def _previous_seconds(path: Path) -> dict[str, float]:
 def vit_features(clips: list, encoder_dir: Path, cache: Path) -> np.ndarray:
     if cache.is_file():
         return np.load(cache)["cls"]
-    import torch
-
     from tacreasoner.model.appearance import AppearanceEncoder
     from tacreasoner.model.build import appearance_video_settings
-    from tacreasoner.model.video_processing import VideoProcessingConfig, preprocess_video
+    from tacreasoner.model.video_processing import VideoProcessingConfig
 
     encoder = AppearanceEncoder.from_pretrained(encoder_dir).eval()
     video = VideoProcessingConfig(num_frames=encoder.config.num_frames, image_size=encoder.config.image_size,
                                   **appearance_video_settings(encoder_dir))
-    feats = []
-    with torch.no_grad():
-        for start in range(0, len(clips), 32):
-            x = torch.from_numpy(np.stack([preprocess_video(c, video) for c in clips[start:start + 32]]))
-            feats.append(encoder(x)[:, 0].double().numpy())
-    cls = np.concatenate(feats)
+    cls = clip_cls_tokens(encoder, clips, video, batch=32)
     cache.parent.mkdir(parents=True, exist_ok=True)
     np.savez(cache, cls=cls)
     return cls

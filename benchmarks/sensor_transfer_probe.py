@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, md_table, publish, stamp
+from _common import clip_cls_tokens, header_md, md_table, publish, stamp
 
 ATTRIBUTES = ("hardness", "protrusion", "elasticity", "friction")
 L2_GRID = (1e-2, 1e-1, 1.0, 10.0)
@@ -51,21 +51,13 @@ def features(clips: list, settings: dict, cache: Path) -> np.ndarray:
         return np.load(cache)["x"]
     import dataclasses
 
-    import torch
-
     from tacreasoner.model.efficientnet import EfficientNetAppearance, backbone_settings, load_imagenet_weights
-    from tacreasoner.model.video_processing import preprocess_video
 
     encoder, video = backbone_settings("block112", (120, 160), 8, "contact", settings["background"])
     video = dataclasses.replace(video, **{k: v for k, v in settings.items() if k != "background"})
     net = EfficientNetAppearance(encoder).eval()
     load_imagenet_weights(net)
-    out = []
-    with torch.no_grad():
-        for start in range(0, len(clips), 16):
-            x = torch.from_numpy(np.stack([preprocess_video(c, video) for c in clips[start:start + 16]]))
-            out.append(net(x)[:, 0].double().numpy())
-    x = np.concatenate(out)
+    x = clip_cls_tokens(net, clips, video)
     cache.parent.mkdir(parents=True, exist_ok=True)
     np.savez(cache, x=x)
     return x
