@@ -1,0 +1,20 @@
+#!/bin/bash
+# heldout3 measurements (experiments/2026-11-29_person_words/criteria.md), from a frozen worktree
+set -e
+WT=/work/wt_words; M=/work/main; PY=$M/.venv/bin/python
+export PYTHONPATH=$WT/src
+cd $M
+T="$PY -m tacreasoner"
+[ -f runs/words/bench_h3/bench.json ] || $T paraphrase-bench --bench runs/qs_stepwise/bench --out runs/words/bench_h3 --wording heldout3 --splits val
+MODELS=(runs/qs_stepwise/model runs/qs_stepwise/train/seed1/stage2/model runs/qs_stepwise/train/seed2/stage2/model)
+for s in 0 1 2; do
+  m=${MODELS[$s]}
+  [ -f runs/words/dyn/bench_direct/seed$s/report.json ] || $T evaluate --model $m --bench runs/qs_stepwise/bench --split val --out runs/words/dyn/bench_direct/seed$s --dtype float32
+  [ -f runs/words/dyn/h3_direct/seed$s/report.json ] || $T evaluate --model $m --bench runs/words/bench_h3 --split val --out runs/words/dyn/h3_direct/seed$s --dtype float32
+  [ -f runs/words/dyn/h3_auto/seed$s/report.json ] || $T evaluate --model $m --bench runs/words/bench_h3 --split val --out runs/words/dyn/h3_auto/seed$s --dtype float32 --answers auto
+  date
+done
+P=runs/physiclear/runs
+[ -f runs/words/pc_h3/rec.seeds0-1-2/report.json ] || $T evaluate-physiclear --model $P/rec.seed0/stage2/model --model $P/rec.seed1/stage2/model --model $P/rec.seed2/stage2/model --data ../shared/data/physiclear --split val --wording heldout3 --answers stepwise-vote --out runs/words/pc_h3
+date
+echo DONE
