@@ -151,6 +151,18 @@ def test_save_and_load_round_trip(processor, tmp_path) -> None:
         TacReasonerProcessor.from_pretrained(tmp_path)
 
 
+def test_the_vocabulary_is_saved_only_when_known(processor, tmp_path) -> None:
+    from tacreasoner.serve.stepwise import model_vocabulary
+
+    processor.save_pretrained(tmp_path)
+    assert "vocabulary" not in (tmp_path / "processor_config.json").read_text()
+    assert model_vocabulary(tmp_path) == "physiclear", "a folder saved before it was recorded"
+    processor.vocabulary = "vtv150k"
+    processor.save_pretrained(tmp_path)
+    assert TacReasonerProcessor.from_pretrained(tmp_path).vocabulary == "vtv150k"
+    assert model_vocabulary(tmp_path) == "vtv150k" and model_vocabulary(tmp_path / "missing") == "physiclear"
+
+
 def _model_for(processor: TacReasonerProcessor) -> TacReasonerForCausalLM:
     torch.manual_seed(0)
     config = TacReasonerConfig(text_config={**TEXT_CONFIG, "vocab_size": len(processor.tokenizer)},

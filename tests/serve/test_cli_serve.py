@@ -133,7 +133,8 @@ def test_the_serve_extra_brings_the_openai_client_the_docs_use() -> None:
     assert "openai>=1.40" in extras["serve"] and "openai>=1.40" in extras["api"]
 
 
-def test_ask_stepwise_reads_each_video_and_shows_the_readings(served_model: Path, clip_files: list[Path]) -> None:
+def test_ask_stepwise_reads_each_video_and_shows_the_readings(served_model: Path, clip_files: list[Path],
+                                                               tmp_path: Path) -> None:
     question = "Which of these feels harder: <tactile> or <tactile>?"
     base = ["ask", question, "--video", str(clip_files[0]), "--video", str(clip_files[1]), "--model",
             str(served_model), "--answers", "stepwise"]
@@ -165,6 +166,20 @@ def test_ask_stepwise_reads_each_video_and_shows_the_readings(served_model: Path
         told = json.loads(colour.stdout)
         assert told["answer"] == "I can't tell its colour from touch." and told["timings"]["steps"] == 0
         assert "does not sense colour" in told["think"]
+    # without --vocabulary the clip is read in the level words recorded in the model folder
+    from tacreasoner.tasks.vocab import get_vocabulary
+
+    dyntac = tmp_path / "dyntac_model"
+    dyntac.mkdir()
+    for f in served_model.iterdir():
+        (dyntac / f.name).symlink_to(f.resolve())
+    config = json.loads((served_model / "processor_config.json").read_text())
+    (dyntac / "processor_config.json").unlink()
+    (dyntac / "processor_config.json").write_text(json.dumps({**config, "vocabulary": "vtv150k"}))
+    own = CliRunner().invoke(app, ["ask", "How firm does this feel? <tactile>", "--video", str(clip_files[0]),
+                                   "--model", str(dyntac), "--answers", "auto", "--json"])
+    assert own.exit_code == 0, own.output
+    assert json.loads(own.stdout)["answer"] in get_vocabulary("vtv150k")["hardness"].levels
     bad = CliRunner().invoke(app, [*base, "--vocabulary", "octopi"])
     assert bad.exit_code == 2 and "unknown vocabulary 'octopi'" in bad.output
 

@@ -38,6 +38,10 @@ def test_two_stages_write_models_adapter_logs_and_run_reports(two_stage_run: Pat
     for stage in (1, 2):
         root = two_stage_run / f"stage{stage}"
         assert (root / "model" / "config.json").is_file() and (root / "model" / "processor_config.json").is_file()
+        # the benchmark's vocabulary is recorded, so ask/serve/demo read clips in the model's own level words
+        from tacreasoner.serve.stepwise import model_vocabulary
+
+        assert model_vocabulary(root / "model") == "vtv150k"
         log = [json.loads(line) for line in (root / "train_log.jsonl").read_text().splitlines()]
         assert [r["step"] for r in log] == [1, 2, 3]
         assert all(r["loss"] > 0 and r["tokens_per_s"] > 0 for r in log)

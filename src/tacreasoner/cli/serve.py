@@ -30,9 +30,10 @@ Answers = Annotated[str, typer.Option(
                       "single-clip wording, the majority level (how evaluate-physiclear answers; recommended for a "
                       "PhysiCLeAR model); auto: a question in a wording the model was trained on in one pass, any "
                       "other as stepwise-vote.")]
-Vocabulary = Annotated[str, typer.Option(
-    "--vocabulary", help="With --answers stepwise[-vote]: the level words the model was trained on (physiclear: "
-                         "soft / moderately hard / hard …; vtv150k: DynTAC-Sim's).")]
+Vocabulary = Annotated[str | None, typer.Option(
+    "--vocabulary", help="With --answers stepwise[-vote]/auto: the level words the model was trained on (physiclear: "
+                         "soft / moderately hard / hard …; vtv150k: DynTAC-Sim's). Default: the one recorded in the "
+                         "model folder, else physiclear.", show_default=False)]
 
 
 def _above_zero(option: str, value: float) -> None:
@@ -74,16 +75,16 @@ def ask(
                                                          "instead of streaming.")] = False,
     dtype: Dtype = "float32",
     answers: Answers = "direct",
-    vocabulary: Vocabulary = "physiclear",
+    vocabulary: Vocabulary = None,
 ) -> None:
     """Ask a trained model about tactile videos; streams its reasoning as it is generated, then the answer."""
     needs_train_extra("ask")
     from tacreasoner.evaluate.predict import check_dtype
     from tacreasoner.serve import Delta, Prompt, Reply, RequestError, Sampling
-    from tacreasoner.serve.stepwise import StepwiseAnswerer
+    from tacreasoner.serve.stepwise import StepwiseAnswerer, model_vocabulary
 
     check_dtype(dtype)
-    stepwise = StepwiseAnswerer(answers, vocabulary)
+    stepwise = StepwiseAnswerer(answers, vocabulary or model_vocabulary(model))
     for path in video:
         if not path.is_file():
             raise FileNotFoundError(f"--video {path}: no such file")
@@ -165,7 +166,7 @@ def serve(
                           "choice (usually one per core).", show_default=False)] = None,
     dtype: Dtype = "float32",
     answers: Answers = "direct",
-    vocabulary: Vocabulary = "physiclear",
+    vocabulary: Vocabulary = None,
 ) -> None:
     """Serve a trained model with the OpenAI chat completions API (videos as video_url parts)."""
     needs_train_extra("serve")
@@ -174,6 +175,7 @@ def serve(
     from tacreasoner.serve.http import bind_socket, serve_forever
     from tacreasoner.serve.media import MediaLimits
     from tacreasoner.serve.openai_api import ServerSettings, create_app
+    from tacreasoner.serve.stepwise import model_vocabulary
 
     for value, option in ((max_batch, "--max-batch"), (max_pending, "--max-pending"), (max_videos, "--max-videos"),
                           (threads, "--threads")):
@@ -190,7 +192,7 @@ def serve(
     settings = ServerSettings(api_key=api_key, max_request_bytes=int(max_request_mb * 2**20),  # checked: before loading
                               decode_timeout_s=decode_timeout, max_pending=max_pending, max_batch=max_batch,
                               limits=MediaLimits(max_videos=max_videos, allowed_dirs=dirs),
-                              answers=answers, vocabulary=vocabulary)
+                              answers=answers, vocabulary=vocabulary or model_vocabulary(model))
     sock = bind_socket(host, port)  # a taken port is found now, not after loading the model
     try:
         if threads is not None:
@@ -216,7 +218,7 @@ def demo(
         Path("runs/demo_examples"),
     dtype: Dtype = "float32",
     answers: Answers = "direct",
-    vocabulary: Vocabulary = "physiclear",
+    vocabulary: Vocabulary = None,
 ) -> None:
     """A web page: upload 1-3 tactile clips (or pick simulated ones), see what the sensor felt, ask, watch the
     reasoning stream."""
@@ -225,10 +227,10 @@ def demo(
     from tacreasoner.evaluate.predict import check_dtype
     from tacreasoner.serve.demo import build_demo, example_clips
     from tacreasoner.serve.http import bind_socket
-    from tacreasoner.serve.stepwise import StepwiseAnswerer
+    from tacreasoner.serve.stepwise import StepwiseAnswerer, model_vocabulary
 
     check_dtype(dtype)
-    stepwise = StepwiseAnswerer(answers, vocabulary)
+    stepwise = StepwiseAnswerer(answers, vocabulary or model_vocabulary(model))
     bind_socket(host, port).close()  # a taken port is found now, not after loading the model
     engine = _load_engine(model, dtype=dtype)
     clips = example_clips(examples)

@@ -115,7 +115,8 @@ class TacReasonerProcessor:
 
     def __init__(self, tokenizer: PreTrainedTokenizerBase, video_config: VideoProcessingConfig | None = None, *,
                  tokens_per_video: int = 5, sensor_types: Sequence[str] = DEFAULT_SENSOR_TYPES,
-                 system_prompt: str | None = None, video_labels: bool = False, option_marker: str = "") -> None:
+                 system_prompt: str | None = None, video_labels: bool = False, option_marker: str = "",
+                 vocabulary: str | None = None) -> None:
         if tokens_per_video < 1:
             raise ValueError(f"tokens_per_video must be ≥ 1, got {tokens_per_video}")
         self.tokenizer = tokenizer
@@ -125,6 +126,9 @@ class TacReasonerProcessor:
         self.system_prompt = system_prompt
         self.video_labels = bool(video_labels)
         self.option_marker = option_marker or ""
+        self.vocabulary = vocabulary
+        """The answer vocabulary of the benchmark the model was trained on (its level words), recorded at saving:
+        how ``ask``/``serve``/``demo`` read a clip stepwise unless told otherwise."""
         self._option_pattern = re.compile(self.option_marker) if self.option_marker else None
         self.tactile_token_id = self._single_token_id(TACTILE_PAD)
         if getattr(tokenizer, "chat_template", None) is None:
@@ -402,7 +406,8 @@ class TacReasonerProcessor:
         return {"processor_class": type(self).__name__, "video": self.video_config.to_dict(),
                 "tokens_per_video": self.tokens_per_video, "sensor_types": list(self.sensor_types),
                 "system_prompt": self.system_prompt, "video_labels": self.video_labels,
-                "option_marker": self.option_marker}
+                "option_marker": self.option_marker,
+                **({"vocabulary": self.vocabulary} if self.vocabulary else {})}
 
     def save_pretrained(self, directory: str | os.PathLike[str], **kwargs: Any) -> None:
         directory = Path(directory)
@@ -416,7 +421,7 @@ class TacReasonerProcessor:
         path = directory / PROCESSOR_CONFIG_NAME
         data = read_json_object(path, "a processor config written by TacReasonerProcessor.save_pretrained")
         known = {"processor_class", "video", "tokens_per_video", "sensor_types", "system_prompt", "video_labels",
-                 "option_marker"}
+                 "option_marker", "vocabulary"}
         if unknown := sorted(set(data) - known):
             raise ValueError(f"{path}: unknown keys {unknown}; known: {', '.join(sorted(known))}")
         tokenizer = AutoTokenizer.from_pretrained(directory)
@@ -424,4 +429,4 @@ class TacReasonerProcessor:
                    tokens_per_video=int(data.get("tokens_per_video", 5)),
                    sensor_types=data.get("sensor_types", DEFAULT_SENSOR_TYPES), system_prompt=data.get("system_prompt"),
                    video_labels=bool(data.get("video_labels", False)),
-                   option_marker=str(data.get("option_marker") or ""))
+                   option_marker=str(data.get("option_marker") or ""), vocabulary=data.get("vocabulary"))

@@ -9,8 +9,11 @@ the step. A question it cannot read is left to the one-pass answer (:meth:`Stepw
 
 from __future__ import annotations
 
+import json
+import os
 import time
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from tacreasoner.evaluate.stepwise import (
@@ -27,7 +30,7 @@ from tacreasoner.serve.engine import Prompt, Reply, Sampling, TactileEngine
 from tacreasoner.serve.stream import split_channels
 from tacreasoner.tasks.schema import QAItem
 
-__all__ = ["StepwiseAnswerer", "answer_stepwise", "answer_view"]
+__all__ = ["StepwiseAnswerer", "answer_stepwise", "answer_view", "model_vocabulary"]
 
 
 def answer_view(engine: TactileEngine, view: QAItem, videos: Sequence[Any],
@@ -60,6 +63,16 @@ def answer_stepwise(engine: TactileEngine, question: str, videos: Sequence[Any],
     in untrained words is read too. None when the question is not one the mode reads."""
     view = free_question_view(question, len(videos), vocabulary, single_clip)
     return None if view is None else answer_view(engine, view, videos, templates, timeout_s)
+
+
+def model_vocabulary(model_dir: str | os.PathLike[str]) -> str:
+    """The level words a model folder was trained on (``processor_config.json``'s ``vocabulary``, recorded at saving
+    since 2026-11-29); ``physiclear`` for a folder saved before then or without it."""
+    try:
+        data = json.loads((Path(model_dir) / "processor_config.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return "physiclear"
+    return str(data.get("vocabulary") or "physiclear") if isinstance(data, dict) else "physiclear"
 
 
 class StepwiseAnswerer:

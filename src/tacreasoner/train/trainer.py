@@ -407,6 +407,7 @@ def _run(config: TrainConfig, stage: int, accelerator: Any, bar: ProgressBar, la
     materialize_sharded(accelerator.unwrap_model(trained))  # FSDP: every process gathers; the main one saves
     model_dir = out / MODEL_DIR
     if accelerator.is_main_process:
+        processor.vocabulary = json.loads((Path(config.data.bench) / "bench.json").read_text()).get("vocabulary")
         _save(accelerator.unwrap_model(trained), processor, stage, out)
         run_info.update({"steps_done": settings.steps, "final_loss": last_loss,
                          "train_seconds": round(train_seconds, 1),
