@@ -1,7 +1,8 @@
 #!/bin/bash
-# heldout3 measurements (experiments/2026-11-29_person_words/criteria.md), from a frozen worktree
+# heldout3 measurements (experiments/2026-11-29_person_words/criteria.md). As run: from a frozen worktree of the
+# criteria's commit (WT), in the main checkout (M) whose runs/ holds the trained models.
 set -e
-WT=/work/wt_words; M=/work/main; PY=$M/.venv/bin/python
+M=${M:-$(git rev-parse --show-toplevel)}; WT=${WT:-$M}; PY=$M/.venv/bin/python
 export PYTHONPATH=$WT/src
 cd $M
 T="$PY -m tacreasoner"
