@@ -20,6 +20,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from tacreasoner.tasks.building import join_words
 from tacreasoner.tasks.conclude import (
     REASONED_TASKS,
     Levels,
@@ -42,8 +43,7 @@ def describe(levels: Levels, vocab: Mapping[str, Attribute]) -> str:
 
 def needs_phrase(needs: Mapping[str, str], vocab: Mapping[str, Attribute]) -> str:
     """``high hardness and low roughness``, in vocabulary order."""
-    parts = [f"{level} {a}" for a in vocab for want, level in needs.items() if a == want]
-    return parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + f" and {parts[-1]}"
+    return join_words([f"{level} {a}" for a in vocab for want, level in needs.items() if a == want])
 
 
 def scenario_step(scenario: str, needs: Mapping[str, str], better: int, vocab: Mapping[str, Attribute]) -> str:

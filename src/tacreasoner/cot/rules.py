@@ -45,6 +45,7 @@ from typing import Any
 from tacreasoner.cot import cuetext
 from tacreasoner.cot.rulebank import ACTION_KEY, BANK_FILE, RulesBank, RulesBankError, load_bank
 from tacreasoner.cot.schema import CoTJob, Prompt, TeacherReply, VideoCues, normalise_output
+from tacreasoner.tasks.building import join_words
 from tacreasoner.tasks.schema import QAItem
 from tacreasoner.tasks.scoring import score_item
 from tacreasoner.tasks.vocab import Attribute, get_vocabulary
@@ -67,11 +68,6 @@ _STAGE_NOUNS = {"press": "the press", "hold": "the hold", "slide": "the slide", 
 
 
 _ORDINALS = ("first", "second", "third")
-
-
-def _join(words: Sequence[str]) -> str:
-    """``a``, ``a and b``, ``a, b and c``."""
-    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + f" and {words[-1]}"
 
 
 # ------------------------------------------------------------------------------------------- consistency
@@ -454,7 +450,7 @@ class RulesTeacher:
         item = job.item
         vocab = get_vocabulary(item.vocabulary)
         names = list(vocab)
-        ctx = {"attributes": _join(names)}
+        ctx = {"attributes": join_words(names)}
         body = self._single_stages(w, job, lambda s: [], None, ctx)
         video = job.videos[0]
         for attribute, level in item.gold["levels"].items():
@@ -539,7 +535,7 @@ class RulesTeacher:
 
     def _brief_intro(self, w: _Writer, job: CoTJob) -> str:
         nouns = [_STAGE_NOUNS[s] for s in job.stages if s in _STAGE_NOUNS] or ["the contact"]
-        return w.pick(("brief_stages",), {"stages": _join(nouns)}, "stages") or f"across {_join(nouns)}"
+        return w.pick(("brief_stages",), {"stages": join_words(nouns)}, "stages") or f"across {join_words(nouns)}"
 
     def _brief_compare(self, w: _Writer, job: CoTJob) -> tuple[list[str], dict[str, str]]:
         """How each video feels for the asked attribute (its rank), which decides the comparison."""
@@ -552,7 +548,7 @@ class RulesTeacher:
             slots = {"n": str(v + 1), "descriptor": w.word("descriptors", ctx["attribute"], rank)}
             fallback = "Video {n} feels {descriptor}".format(**slots)
             feels.append(w.pick(("brief_feel",), slots, f"video{v + 1}", w.ok) or fallback)
-        return [f"{self._brief_intro(w, job)}, {_join(feels)}"], ctx
+        return [f"{self._brief_intro(w, job)}, {join_words(feels)}"], ctx
 
     def _levels_compare(self, w: _Writer, job: CoTJob) -> list[str] | None:
         """Each video's feel with its level, then the number rule that picks the answer (None without ranks)."""
@@ -581,7 +577,7 @@ class RulesTeacher:
         rule = w.pick(("level_rule", key), slots, "rule", lambda text: _concludes(item, _sentence(text)))
         if rule is None:
             return None
-        return [_sentence(f"{self._brief_intro(w, job)}, {_join(feels)}"), _sentence(rule)]
+        return [_sentence(f"{self._brief_intro(w, job)}, {join_words(feels)}"), _sentence(rule)]
 
     def _brief_osc(self, w: _Writer, job: CoTJob) -> tuple[list[str], dict[str, str]]:
         item = job.item
@@ -595,12 +591,12 @@ class RulesTeacher:
             body.append(w.pick(("brief_match",), slots, "osc.match", w.ok)
                         or f"Video {v + 1} goes with the {item.options[k]} ({'ABC'[k]})")
         body[0] = f"{self._brief_intro(w, job)}, {_lower_first(body[0])}"
-        return body, {"attributes": _join(list(get_vocabulary(item.vocabulary)))}
+        return body, {"attributes": join_words(list(get_vocabulary(item.vocabulary)))}
 
     def _brief_combined(self, w: _Writer, job: CoTJob) -> tuple[list[str], dict[str, str]]:
         item = job.item
-        ctx = {"attributes": _join(list(get_vocabulary(item.vocabulary)))}
-        profile = _join([w.word("descriptors", a, level) for a, level in item.gold["levels"].items()])
+        ctx = {"attributes": join_words(list(get_vocabulary(item.vocabulary)))}
+        profile = join_words([w.word("descriptors", a, level) for a, level in item.gold["levels"].items()])
         intro = self._brief_intro(w, job)
         text = w.pick(("brief_profile",), {"intro": intro, "profile": profile}, "profile", w.ok)
         return [text or f"{intro}, I rate {ctx['attributes']} in turn"], ctx
@@ -686,7 +682,7 @@ class RulesTeacher:
         assignment = item.gold["assignment"]
         ranks = _ranks(item, len(job.videos), dict)
         vocab = get_vocabulary(item.vocabulary)
-        ctx = {"attributes": _join(list(vocab))}
+        ctx = {"attributes": join_words(list(vocab))}
         body = []
         for stage in job.stages:
             cues = [c for a in vocab for c, _ in self.bank["evidence"].get(a, {}).get(_stage_key(stage), [])]

@@ -37,6 +37,7 @@ from typing import Any
 from tacreasoner.cot.compact import conclusion_step, describe
 from tacreasoner.cot.knowledge import QUESTION_GROUP, SCENARIO_QUESTION
 from tacreasoner.tasks.answers import ordinal_answer, osc_answer
+from tacreasoner.tasks.building import join_words
 from tacreasoner.tasks.conclude import (
     REASONED_TASKS,
     Levels,
@@ -56,8 +57,8 @@ from tacreasoner.tasks.scoring import TSA_LETTERS
 from tacreasoner.tasks.templating import load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
 
-__all__ = ["SINGLE_CLIP_MODES", "STEP_TOKENS", "TRAINED_ONE_PASS_MODES", "VOTE_TEMPLATES", "Step", "Stepwise",
-           "conclude", "free_question_view", "question_view", "reading_templates", "steps_for"]
+__all__ = ["SINGLE_CLIP_MODES", "STEP_TOKENS", "TRAINED_ONE_PASS_MODES", "VOTE_TEMPLATES", "VOTING_MODES", "Step",
+           "Stepwise", "conclude", "free_question_view", "question_view", "reading_templates", "steps_for"]
 
 STEP_TOKENS = 96
 """Reply budget of one sub-question: a reading is a level word (~5 tokens), three named objects' levels ~40, a
@@ -68,6 +69,9 @@ READING_TEMPLATE = "tfa_choices"
 """The single-clip wording each video is read with: it lists the level words, so the reply is one of them."""
 VOTE_TEMPLATES = ("tfa_choices", "tfa_level", "tfa_describe", "tfa_feel")
 """``stepwise-vote``: every single-clip wording of ``tasks/templates/tfa.yaml``, the level taken by majority."""
+VOTING_MODES: tuple[str, ...] = ("stepwise-vote", "auto")
+"""Answering modes that read each video in every one of :data:`VOTE_TEMPLATES` (``auto`` reads as ``stepwise-vote``
+does what it reads)."""
 SINGLE_CLIP_MODES: tuple[str, ...] = ("stepwise-vote", "auto")
 """Answering modes that answer a one-clip question in words the model was not trained on from the clip's reading
 (the properties read from its words by ``tasks.conclude.asked_properties``); questions in a trained wording stay one
@@ -231,10 +235,6 @@ def steps_for(item: QAItem, videos: Sequence[VideoKey], templates: Sequence[str]
     return steps
 
 
-def _listed(words: Sequence[str]) -> str:
-    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}"
-
-
 def _said(reply: str) -> str:
     """The answer part of a sub-reply (the whole reply when it has no ``<answer>``)."""
     return extract_answer(reply, "lenient") or reply
@@ -263,7 +263,7 @@ def _answer_text(item: QAItem, answer: Any) -> str:
 def reading_templates(answers: str) -> tuple[str, ...]:
     """The single-clip wordings each video is read in for an answering mode: all of them for ``stepwise-vote`` and
     ``auto``."""
-    return VOTE_TEMPLATES if answers in ("stepwise-vote", "auto") else (READING_TEMPLATE,)
+    return VOTE_TEMPLATES if answers in VOTING_MODES else (READING_TEMPLATE,)
 
 
 def _vote(ranks: Sequence[int | None]) -> int | None:
@@ -284,7 +284,7 @@ def conclude(item: QAItem, videos: Sequence[VideoKey], replies: Mapping[str, str
     vocab = get_vocabulary(item.vocabulary)
     if item.gold.get("beyond_touch"):  # nothing to read: say what touch does tell
         thing = item.gold["beyond_touch"]
-        return Stepwise(f"<think>A tactile sensor feels {_listed(list(vocab))}; it does not sense {thing}.</think>"
+        return Stepwise(f"<think>A tactile sensor feels {join_words(list(vocab))}; it does not sense {thing}.</think>"
                         f"<answer>I can't tell its {thing} from touch.</answer>", [])
     steps = steps_for(item, videos, templates)
     guessed: list[str] = []

@@ -154,19 +154,21 @@ def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = N
     idx = sample_indices(len(frames), config.num_frames, method,
                          frames=frames if method in ("salient", "contact") else None,
                          phases=phases if method == "phase" else None, seed=seed)
-    turn = config.orientation == "match" and (frames.shape[1] > frames.shape[2]) != \
-        (config.image_size[0] > config.image_size[1])
-    if config.background == "keep":
-        chosen = np.rot90(frames[idx], axes=(1, 2)) if turn else frames[idx]
-        out = resize_keep_aspect(chosen, *config.image_size, mode=config.resize_mode).astype(np.float32)
-        out /= 255.0
-    else:
+    keep = config.background == "keep"
+    if keep:
+        chosen = frames[idx]
+    else:  # the gel at rest first, prepared with the frames
         if background is None:
             background = background_frame(frames, phases)
         chosen = np.concatenate([background[None], frames[idx]])
-        if turn:
-            chosen = np.rot90(chosen, axes=(1, 2))
-        chosen = resize_keep_aspect(np.ascontiguousarray(chosen), *config.image_size, mode=config.resize_mode)
+    if config.orientation == "match" and (frames.shape[1] > frames.shape[2]) != \
+            (config.image_size[0] > config.image_size[1]):
+        chosen = np.rot90(chosen, axes=(1, 2))
+    chosen = resize_keep_aspect(chosen, *config.image_size, mode=config.resize_mode)
+    if keep:
+        out = chosen.astype(np.float32)
+        out /= 255.0
+    else:
         out = subtract_background(chosen[1:], chosen[0])
         if config.colour == "magnitude":
             change = np.sqrt(np.square(out - 0.5).sum(axis=-1, keepdims=True) / 3.0)

@@ -26,6 +26,7 @@ from tacreasoner.evaluate.stepwise import (
     reading_templates,
     steps_for,
 )
+from tacreasoner.model.processing import PROCESSOR_CONFIG_NAME
 from tacreasoner.serve.engine import Prompt, Reply, Sampling, TactileEngine
 from tacreasoner.serve.stream import split_channels
 from tacreasoner.tasks.schema import QAItem
@@ -69,7 +70,7 @@ def model_vocabulary(model_dir: str | os.PathLike[str]) -> str:
     """The level words a model folder was trained on (``processor_config.json``'s ``vocabulary``, recorded at saving
     since 2026-11-29); ``physiclear`` for a folder saved before then or without it."""
     try:
-        data = json.loads((Path(model_dir) / "processor_config.json").read_text(encoding="utf-8"))
+        data = json.loads((Path(model_dir) / PROCESSOR_CONFIG_NAME).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return "physiclear"
     return str(data.get("vocabulary") or "physiclear") if isinstance(data, dict) else "physiclear"

@@ -22,6 +22,7 @@ import itertools
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 from tacreasoner.tasks.extract import extract_answer, split_reasoning
@@ -121,6 +122,16 @@ _WHOLE_OBJECT = re.compile(r"\b(feels?\s+like|profile|properties|describe\s+(wha
                            r"\s+(\w+\s+)?feel|what\s+do\s+you\s+feel)\b", re.IGNORECASE)
 
 
+@lru_cache(maxsize=64)
+def _stems_pattern(stems: tuple[str, ...]) -> re.Pattern[str]:
+    return re.compile(r"\b(" + "|".join(re.escape(w) for w in stems) + ")", re.IGNORECASE)
+
+
+def _names_a_stem(text: str, stems: tuple[str, ...]) -> bool:
+    """Whether a word of ``text`` starts with one of ``stems`` (or is one of its phrases)."""
+    return _stems_pattern(stems).search(text) is not None
+
+
 def asked_properties(question: str, vocabulary: str) -> list[str] | None:
     """The properties a question about one clip asks for, read from its words (:data:`PROPERTY_WORDS`), in
     vocabulary order: the ones it names, or every one for a question about how the object feels as a whole ("What
@@ -132,7 +143,7 @@ def asked_properties(question: str, vocabulary: str) -> list[str] | None:
         words = (*PROPERTY_WORDS.get(attribute, ()), attribute)
         if attribute == "friction" and "roughness" not in vocab:
             words += PROPERTY_WORDS["roughness"]
-        if re.search(r"\b(" + "|".join(re.escape(w) for w in words) + ")", text, re.IGNORECASE):
+        if _names_a_stem(text, words):
             found.append(attribute)
     if found:
         return found
@@ -160,10 +171,7 @@ def beyond_touch(question: str, vocabulary: str) -> str | None:
     text = question.replace(PLACEHOLDER, " ")
     if asked_properties(text, vocabulary) is not None or _REAL_OR_FAKE.search(text):
         return None
-    for thing, words in BEYOND_TOUCH.items():
-        if re.search(r"\b(" + "|".join(re.escape(w) for w in words) + ")", text, re.IGNORECASE):
-            return thing
-    return None
+    return next((thing for thing, words in BEYOND_TOUCH.items() if _names_a_stem(text, words)), None)
 
 
 def needed_attributes(item: QAItem) -> list[str]:

@@ -93,7 +93,7 @@ def load_paraphrases(wording: str, directory: str | None = None) -> Mapping[str,
 
 
 def heldout_wording_of(question: str) -> str | None:
-    """The id of the held-out wording (of either set) ``question`` is asked in (slots filled with anything), else
+    """The id of the held-out wording (of any set) ``question`` is asked in (slots filled with anything), else
     None: how a test proves a training question never uses one."""
     return _wording_of(question, [p.template for wording in HELDOUT_WORDINGS
                                   for kind in load_paraphrases(wording).values() for p in kind])
