@@ -36,6 +36,8 @@ class SensorStyle:
     noise_std: float
     spread_sigmas_mm: tuple[float, ...]
     spread_weights: tuple[float, ...]
+    varied: bool = False
+    """Each clip draws its own look (``vary_look``): lights, gel colour, gain, noise; the geometry stays."""
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -93,7 +95,8 @@ PHYSICLEAR_CONTACT_GAIN = 0.33
 
 def get_sensor(spec: str) -> SensorStyle:
     """Look up a sensor by name; ``name@fps`` overrides the frame rate, ``+markers`` adds the 7×9 marker grid and
-    ``mini+physiclear`` calibrates the contact signal to PhysiCLeAR's real clips (options combine: a+b+c)."""
+    ``mini+physiclear`` calibrates the contact signal to PhysiCLeAR's real clips, ``+varied`` gives every clip its
+    own look (options combine: a+b+c)."""
     text = spec.strip().lower()
     name, _, fps_text = text.partition("@")
     base_name, *options = name.split("+")
@@ -104,13 +107,15 @@ def get_sensor(spec: str) -> SensorStyle:
     for option in options:
         if option == "markers" and style.markers is None:
             style = replace(style, name=f"{style.name}+markers", markers=(7, 9))
+        elif option == "varied" and not style.varied:
+            style = replace(style, name=f"{style.name}+varied", varied=True)
         elif option == "physiclear" and base_name == "mini" and "physiclear" not in style.name:
             style = replace(style, name=f"{style.name}+physiclear",
                             shading_gain=style.shading_gain * PHYSICLEAR_CONTACT_GAIN,
                             depth_darkening=style.depth_darkening * PHYSICLEAR_CONTACT_GAIN)
         else:
             raise ValueError(f"unknown sensor option {option!r} in {spec!r}; only 'mini+markers', "
-                             "'digit+markers' and 'mini+physiclear'")
+                             "'digit+markers', 'mini+physiclear' and NAME+varied")
     if fps_text:
         try:
             fps = float(fps_text)
@@ -120,6 +125,32 @@ def get_sensor(spec: str) -> SensorStyle:
             raise ValueError(f"sensor {spec!r}: frame rate must be between 1 and 240 fps")
         style = replace(style, name=f"{style.name}@{fps:g}", fps=fps)
     return style
+
+
+def vary_look(style: SensorStyle, rng: np.random.Generator) -> SensorStyle:
+    """One clip's look drawn around ``style`` (domain randomisation), so a model trained on it cannot lean on one
+    unit's colours.
+
+    Vision-based tactile sensors differ in their gel's paint (the no-contact colour), LED colours and where they
+    sit, brightness falloff, how strongly a slope shows (gain) and noise; they share the physics. The ranges are broad
+    and generic (every channel over most of its range, the LEDs turned anywhere and their colours in any order),
+    not fitted to any one sensor. Resolution, scale and frame rate stay the style's: they change what is measured,
+    not how it looks.
+    """
+    order = rng.permutation(3)
+    turn = rng.uniform(0.0, 360.0)
+    lights = tuple(Light((light.azimuth_deg + turn) % 360.0, float(rng.uniform(25.0, 50.0)),
+                         tuple(float(light.rgb[c]) for c in order))  # type: ignore[arg-type]
+                   for light in style.lights)
+    return replace(
+        style, varied=False,
+        background_rgb=tuple(float(v) for v in rng.uniform(20.0, 170.0, 3)),  # type: ignore[arg-type]
+        centre_tint_rgb=tuple(float(v) for v in rng.uniform(0.0, 100.0, 3)),  # type: ignore[arg-type]
+        gradient_rgb=tuple(float(v) for v in rng.uniform(-80.0, 50.0, 3)),  # type: ignore[arg-type]
+        vignette=float(rng.uniform(0.1, 0.4)), lights=lights,
+        shading_gain=style.shading_gain * float(np.exp(rng.uniform(np.log(0.4), np.log(2.0)))),
+        depth_darkening=float(rng.uniform(-15.0, 10.0)), noise_std=float(rng.uniform(0.3, 2.0)),
+    )
 
 
 def render_background(style: SensorStyle, rng: np.random.Generator) -> np.ndarray:

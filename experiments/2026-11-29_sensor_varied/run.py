@@ -1,0 +1,29 @@
+"""Train the quickstart recipe on a varied-look Mini corpus, 3 seeds, without scoring its own test split.
+
+    PYTHONPATH=src python experiments/2026-11-29_sensor_varied/run.py --out runs/var --reuse runs/qs_stepwise
+then
+    python benchmarks/sensor_transfer.py --bench runs/sens/bench --out runs/var/eval_sens --preparations match \
+        --models runs/var/train/seed{0,1,2}/stage2/model
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+from dataclasses import replace
+from pathlib import Path
+
+from tacreasoner.recipes.quickstart import QuickstartRun, QuickstartSettings, quickstart_stages, run_stages
+
+ap = argparse.ArgumentParser()
+ap.add_argument("--out", type=Path, required=True)
+ap.add_argument("--reuse", type=Path, help="a quickstart folder whose llm/ and encoder/ are copied (same settings)")
+args = ap.parse_args()
+args.out.mkdir(parents=True, exist_ok=True)
+if args.reuse:
+    for part in ("llm", "encoder"):
+        if not (args.out / part).exists():
+            shutil.copytree(args.reuse / part, args.out / part)
+settings = replace(QuickstartSettings.load(), sensors=["mini+varied"])
+stages = quickstart_stages(QuickstartRun(out=args.out, seeds=3), settings)
+run_stages([s for s in stages if s.name in ("simulate", "benchmark", "llm", "encoder", "train")])
