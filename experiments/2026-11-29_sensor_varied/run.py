@@ -15,15 +15,21 @@ from pathlib import Path
 
 from tacreasoner.recipes.quickstart import QuickstartRun, QuickstartSettings, quickstart_stages, run_stages
 
-ap = argparse.ArgumentParser()
-ap.add_argument("--out", type=Path, required=True)
-ap.add_argument("--reuse", type=Path, help="a quickstart folder whose llm/ and encoder/ are copied (same settings)")
-args = ap.parse_args()
-args.out.mkdir(parents=True, exist_ok=True)
-if args.reuse:
-    for part in ("llm", "encoder"):
-        if not (args.out / part).exists():
-            shutil.copytree(args.reuse / part, args.out / part)
-settings = replace(QuickstartSettings.load(), sensors=["mini+varied"])
-stages = quickstart_stages(QuickstartRun(out=args.out, seeds=3), settings)
-run_stages([s for s in stages if s.name in ("simulate", "benchmark", "llm", "encoder", "train")])
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out", type=Path, required=True)
+    ap.add_argument("--reuse", type=Path, help="a quickstart folder whose llm/ and encoder/ are copied (same settings)")
+    args = ap.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    if args.reuse:
+        for part in ("llm", "encoder"):
+            if not (args.out / part).exists():
+                shutil.copytree(args.reuse / part, args.out / part)
+    settings = replace(QuickstartSettings.load(), sensors=["mini+varied"])
+    stages = quickstart_stages(QuickstartRun(out=args.out, seeds=3), settings)
+    run_stages([s for s in stages if s.name in ("simulate", "benchmark", "llm", "encoder", "train")])
+
+
+if __name__ == "__main__":  # worker processes import this file
+    main()

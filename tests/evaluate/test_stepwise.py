@@ -331,7 +331,7 @@ def test_only_the_benchmarks_and_trainings_own_wordings_count_as_trained() -> No
 @pytest.mark.parametrize("vocabulary", ["physiclear", "vtv150k"])
 def test_auto_answers_trained_wordings_in_one_pass_and_a_persons_stepwise(vocabulary: str) -> None:
     """``auto``: every benchmark-worded item (comparisons included) goes to one pass; the same items in held-out
-    words are read stepwise exactly as ``stepwise-vote`` reads them."""
+    words are seen as ``stepwise-vote`` sees them (the comparisons then asked again: the test below)."""
     from tacreasoner.evaluate.predict import _question_views, check_answers
     from tacreasoner.evaluate.stepwise import VOTE_TEMPLATES, free_question_view, reading_templates
     from tacreasoner.tasks.paraphrase import reword_items
@@ -349,3 +349,50 @@ def test_auto_answers_trained_wordings_in_one_pass_and_a_persons_stepwise(vocabu
     trained = items[[i.task for i in items].index("SFD")].question
     assert free_question_view(trained, 2, vocabulary, True, trained_one_pass=True) is None
     assert free_question_view(trained, 2, vocabulary, True) is not None
+
+
+@pytest.mark.parametrize("vocabulary", ["physiclear", "vtv150k"])
+def test_auto_asks_a_persons_comparison_again_in_the_benchmarks_own_words(vocabulary: str) -> None:
+    """Each comparison in held-out words is asked again in exactly the wording the benchmark's plainest template
+    gives its slots (read from the words, never the gold), and recognised as trained; stepwise-vote asks nothing
+    again; single-clip readings stay stepwise."""
+    from tacreasoner.evaluate.predict import _question_views, _reasked_questions
+    from tacreasoner.tasks.paraphrase import reword_items, trained_wording_of
+    from tacreasoner.tasks.templating import load_templates
+
+    tasks = ["TFA-hardness", "SFD", "SOI", *(["PC"] if vocabulary == "physiclear" else [])]
+    items = build_items(make_clips(n_objects=12, repeats=2), tasks=tasks, vocabulary=vocabulary, split="val", seed=0)
+    plain = {"sfd_which": "sfd_which_plain", "sfd_yesno": "sfd_yesno_plain", "soi": "soi_plain", "pc": "pc_compared"}
+    templates = {t.id: t for ts in load_templates().values() for t in ts}
+    for wording in ("heldout3", "heldout4"):
+        worded = reword_items(items, wording)
+        views = _question_views(worded, "auto")
+        reasked = _reasked_questions(views, "auto")
+        assert _reasked_questions(views, "stepwise-vote") == {}
+        compared = [i for i in worded if i.task in ("SFD", "SOI", "PC")]
+        assert compared and {i.id for i in compared} >= set(reasked) and not any(
+            i.task.startswith("TFA") for i in worded if i.id in reasked)
+        for item in compared:
+            if item.id not in reasked:  # its words do not say what it compares: then read stepwise or one pass
+                continue
+            kind = {"SOI": "soi", "PC": "pc"}.get(item.task) or \
+                ("sfd_yesno" if item.answer in ("yes", "no") else "sfd_which")
+            assert reasked[item.id] == templates[plain[kind]].render(**item.meta["slots"]), item.question
+            assert trained_wording_of(reasked[item.id]) is not None
+        assert len(reasked) >= 0.9 * len(compared)
+
+
+def test_a_real_or_fake_question_in_a_persons_words_is_asked_again_with_its_fruit() -> None:
+    from tacreasoner.evaluate.stepwise import free_question_view, reasked_question
+
+    def view(question: str, mode_reasks: bool = True) -> QAItem | None:
+        return free_question_view(question, 1, "vtv150k", single_clip=True, trained_one_pass=True, reask=mode_reasks)
+
+    found = view("Could these strawberries be plastic ones? <tactile>")
+    assert found is not None and found.task == "RFOR" and found.gold == {"fruit": "strawberry"}
+    assert reasked_question(found) == "<tactile>\nIs this strawberry real or fake?"
+    assert view("<tactile>\nIs it the real thing?").gold == {"fruit": "fruit"}  # type: ignore[union-attr]
+    assert view("<tactile>\nIs this plastic?") is None  # plastic alone: not asked about a fruit
+    assert view("<tactile>\nIs this fake orange soft?").task == "TFA-hardness"  # type: ignore[union-attr]
+    assert view("<tactile>\nIs this peach real?", mode_reasks=False) is None  # stepwise-vote: one pass as asked
+    assert view("<tactile>\nIs this banana real or fake?") is None  # the benchmark's own words: one pass

@@ -166,6 +166,19 @@ def test_ask_stepwise_reads_each_video_and_shows_the_readings(served_model: Path
         told = json.loads(colour.stdout)
         assert told["answer"] == "I can't tell its colour from touch." and told["timings"]["steps"] == 0
         assert "does not sense colour" in told["think"]
+    # auto asks a person's comparison or real-or-fake question again in the benchmark's words, in one pass
+    two = ["--video", str(clip_files[0]), "--video", str(clip_files[1])]
+    for mode, steps in (("auto", 1), ("stepwise-vote", 8)):
+        compared = CliRunner().invoke(app, ["ask", "<tactile>\n<tactile>\nOut of the pair, which one is harder?",
+                                            *two, "--model", str(served_model), "--answers", mode, "--json"])
+        said = json.loads(compared.stdout)
+        assert said["timings"]["steps"] == steps
+        assert said.get("asked_as") == ("<tactile>\n<tactile>\nThese tactile videos show two different objects. "
+                                        "Which object is harder?" if mode == "auto" else None)
+    fruit = CliRunner().invoke(app, ["ask", "Is this orange a fake? <tactile>", "--video", str(clip_files[0]),
+                                     "--model", str(served_model), "--answers", "auto"])
+    assert fruit.exit_code == 0 and "asked in the benchmark's words, one pass: " in fruit.output
+    assert "Is this orange real or fake?" in fruit.output
     # without --vocabulary the clip is read in the level words recorded in the model folder
     from tacreasoner.tasks.vocab import get_vocabulary
 

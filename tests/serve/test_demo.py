@@ -176,6 +176,9 @@ def test_a_stepwise_demo_shows_each_clips_reading_for_a_comparison(served_model:
     assert answer in ("the first object", "the second object") and status.startswith("stepwise: 2 passes")
     *_, (_, _, one_status) = calls.ask([str(clip_files[0])], None, "Is this object soft or hard?", False)
     assert "passes" not in one_status  # one clip: one pass, as before
+    auto = DemoCallbacks(engine, {}, warn=pytest.fail, stepwise=StepwiseAnswerer("auto", "physiclear"))
+    *_, (_, _, asked_status) = auto.ask([str(clip_files[0])], None, "Is this lemon a fake one?", False)
+    assert asked_status.startswith("auto: asked as “<tactile>\nIs this lemon real or fake?”")
 
 
 @pytest.fixture(scope="module")

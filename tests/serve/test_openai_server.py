@@ -343,6 +343,11 @@ def test_a_stepwise_server_reads_each_video_of_a_comparison_and_shows_the_readin
         plain = _client(base).chat.completions.create(model="tacreasoner", messages=_ask(COMPARE, *two),
                                                       max_tokens=8)
         assert "steps" not in plain.model_extra["timings"]
+    with _server(engine, free_port(), answers="auto") as base:  # a person's comparison asked in trained words
+        asked = _client(base).chat.completions.create(model="tacreasoner", messages=_ask(COMPARE, *two),
+                                                      max_tokens=8)
+        assert asked.model_extra["timings"]["steps"] == 1 and asked.model_extra["timings"]["prepare_s"] > 0
+        assert asked.model_extra["asked_as"].endswith("Which object is harder?")
 
 
 @pytest.mark.parametrize(("setting", "value"), [("decode_timeout_s", 0.0), ("max_request_bytes", 0),

@@ -107,8 +107,12 @@ def ask(
             for label, text in (("think:", stepped.reasoning), ("answer:", stepped.content)):
                 console.print(f"[bold]{label}[/bold] ", end="")
                 console.print(text, markup=False, highlight=False)
-            console.print(f"[dim]stepwise: {int(stepped.timings['steps'])} passes, {stepped.completion_tokens} "
-                          f"tokens in {stepped.timings['total_s']:.2f} s[/dim]")
+            if stepped.asked_as is not None:
+                console.print(f"[dim]asked in the benchmark's words, one pass: {stepped.asked_as!r} "
+                              f"({stepped.timings['total_s']:.2f} s)[/dim]", highlight=False)
+            else:
+                console.print(f"[dim]stepwise: {int(stepped.timings['steps'])} passes, {stepped.completion_tokens} "
+                              f"tokens in {stepped.timings['total_s']:.2f} s[/dim]")
             return
         console.print("[dim]stepwise: not a comparison it reads (see --answers); answered in one pass[/dim]")
     if as_json:

@@ -96,10 +96,12 @@ def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[
     dtype = resolve_dtype(dtype)
     cast = f"; dtype={dtype}" if dtype not in (None, "float32") else ""
     mode = f"; answers={check_answers(answers)}" if answers != "direct" else ""
-    from tacreasoner.evaluate.stepwise import SINGLE_CLIP_MODES
+    from tacreasoner.evaluate.stepwise import REASKING_MODES, SINGLE_CLIP_MODES
 
     if answers in SINGLE_CLIP_MODES:  # since 2026-11-29: a folder answered before then is not resumed as if alike
         mode += " (one-clip questions in untrained words read)"
+    if answers in REASKING_MODES:  # since 2026-11-29, likewise
+        mode += " (a person's comparisons and real-or-fake questions asked again in the benchmark's words)"
     return f"model={model} [{stamp}]; bench={Path(bench_dir).resolve()}{_bench_version(Path(bench_dir))}{cast}{mode}"
 
 
@@ -323,17 +325,21 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
     if progress is not None:
         progress(len(items) - len(todo), len(items))
     views = _question_views(todo, answers) if answers != "direct" else {}
-    stepwise = [item for item in todo if item.id in views]
-    direct = [item for item in todo if item.id not in views]
+    reasked = _reasked_questions(views, answers)
+    stepwise = [item for item in todo if item.id in views and item.id not in reasked]
+    direct = [item for item in todo if item.id not in views or item.id in reasked]
     # similar lengths together: less padding in each generate call
     direct.sort(key=lambda item: (len(item.videos), len(item.question)))
     done_count = len(items) - len(todo)
     with out.open("a", encoding="utf-8") as f:
         for start, answered in zip(range(0, len(direct), batch_size),
-                                   replies([(item.question, keys[item.id]) for item in direct]), strict=True):
+                                   replies([(reasked.get(item.id, item.question), keys[item.id])
+                                            for item in direct]), strict=True):
             chunk = direct[start:start + batch_size]
             for item, (text, was_cut) in zip(chunk, answered, strict=True):
                 record = {"id": item.id, "prediction": text, "task": item.task, "cut": was_cut, **tag}
+                if item.id in reasked:  # what the model was asked instead of the item's words
+                    record["asked_as"] = reasked[item.id]
                 if touch == "shuffled":  # which clips it was shown, for checking the control
                     record["touch_videos"] = [_key_name(k, root) for k in keys[item.id]]
                 f.write(json.dumps(record) + "\n")
@@ -351,11 +357,23 @@ def _question_views(items: Sequence[QAItem], answers: str) -> dict[str, QAItem]:
     """id → the stepwise mode's view of each item it answers (the others, single-clip questions (unless the mode
     reads those in untrained words: ``SINGLE_CLIP_MODES``) and comparisons whose words do not say what they ask, are
     answered in one pass)."""
-    from tacreasoner.evaluate.stepwise import SINGLE_CLIP_MODES, TRAINED_ONE_PASS_MODES, question_view
+    from tacreasoner.evaluate.stepwise import REASKING_MODES, SINGLE_CLIP_MODES, TRAINED_ONE_PASS_MODES, question_view
 
     views = {item.id: question_view(item, single_clip=answers in SINGLE_CLIP_MODES,
-                                    trained_one_pass=answers in TRAINED_ONE_PASS_MODES) for item in items}
+                                    trained_one_pass=answers in TRAINED_ONE_PASS_MODES,
+                                    reask=answers in REASKING_MODES) for item in items}
     return {item_id: view for item_id, view in views.items() if view is not None}
+
+
+def _reasked_questions(views: Mapping[str, QAItem], answers: str) -> dict[str, str]:
+    """id → the benchmark wording an item in a person's words is asked again in, one pass
+    (``stepwise.REASKING_MODES``); the other views are read stepwise."""
+    from tacreasoner.evaluate.stepwise import REASKING_MODES, reasked_question
+
+    if answers not in REASKING_MODES:
+        return {}
+    asked = {item_id: reasked_question(view) for item_id, view in views.items()}
+    return {item_id: question for item_id, question in asked.items() if question is not None}
 
 
 def _replies(base: Any, processor: Any, prompts: Sequence[tuple[str, Sequence[VideoKey]]], bank: Any,

@@ -42,6 +42,7 @@ from tacreasoner.tasks.conclude import (
     REASONED_TASKS,
     Levels,
     asked,
+    asked_fruit,
     asked_properties,
     beyond_touch,
     implied_answers,
@@ -57,8 +58,9 @@ from tacreasoner.tasks.scoring import TSA_LETTERS
 from tacreasoner.tasks.templating import load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
 
-__all__ = ["SINGLE_CLIP_MODES", "STEP_TOKENS", "TRAINED_ONE_PASS_MODES", "VOTE_TEMPLATES", "VOTING_MODES", "Step",
-           "Stepwise", "conclude", "free_question_view", "question_view", "reading_templates", "steps_for"]
+__all__ = ["REASKED_TASKS", "REASKING_MODES", "SINGLE_CLIP_MODES", "STEP_TOKENS", "TRAINED_ONE_PASS_MODES",
+           "VOTE_TEMPLATES", "VOTING_MODES", "Step", "Stepwise", "conclude", "free_question_view", "question_view",
+           "reading_templates", "reasked_question", "steps_for"]
 
 STEP_TOKENS = 96
 """Reply budget of one sub-question: a reading is a level word (~5 tokens), three named objects' levels ~40, a
@@ -81,6 +83,15 @@ TRAINED_ONE_PASS_MODES: tuple[str, ...] = ("auto",)
 training paraphrase) in one pass, comparisons included, and read the others stepwise: for a model whose one pass
 compares well in its own words (the DynTAC-Sim quickstart's) but not in a person's (experiments/
 2026-11-29_person_words)."""
+REASKING_MODES: tuple[str, ...] = ("auto",)
+"""Answering modes that ask a person's comparison (SFD, SOI, PC) or real-or-fake question (RFOR) again in the
+benchmark's own wording, in one pass, once its words say what it asks (:func:`reasked_question`): the DynTAC-Sim
+quickstart's one pass compares better in its own words than its readings do (SFD 80.9 against 68.9, val) and answers
+real or fake in no other (experiments/2026-11-29_reask)."""
+REASKED_TASKS = ("SFD", "SOI", "PC", "RFOR")
+_REASK_TEMPLATE = {"SFD which": "sfd_which_plain", "SFD yesno": "sfd_yesno_plain", "SOI": "soi_plain",
+                   "PC": "pc_compared", "RFOR": "rfor_plain"}
+"""The benchmark wording a question is asked again in: the plainest of its kind."""
 _OPTION = re.compile(r"\(([A-C])\)[^:\n(]*:\s*([^.\n(]*)")
 """``(A) lemon: soft, …`` in a reply listing all three named objects on one line: a span stops at the next ``(``."""
 
@@ -120,25 +131,40 @@ def _one_clip_asked(question: str, vocabulary: str) -> tuple[str, dict[str, Any]
     return (f"TFA-{found[0]}" if len(found) == 1 else "TFA-combined"), {"attributes": found}
 
 
-def _single_clip_view(item: QAItem) -> QAItem | None:
-    """A question about one clip as the mode sees it (:func:`_one_clip_asked`)."""
-    asked_here = _one_clip_asked(item.question, item.vocabulary) if len(item.videos) == 1 else None
+def _one_clip_reasked(question: str, vocabulary: str) -> tuple[str, dict[str, Any]] | None:
+    """A question about one clip that asks whether the fruit is real, as (``RFOR``, its fruit), when it is not in a
+    trained wording (:func:`tacreasoner.tasks.conclude.asked_fruit`)."""
+    if trained_wording_of(question) is not None or (fruit := asked_fruit(question, vocabulary)) is None:
+        return None
+    return "RFOR", {"fruit": fruit}
+
+
+def _single_clip_view(item: QAItem, reask: bool = False) -> QAItem | None:
+    """A question about one clip as the mode sees it (:func:`_one_clip_asked`; with ``reask`` also a real-or-fake
+    one)."""
+    if len(item.videos) != 1:
+        return None
+    asked_here = _one_clip_asked(item.question, item.vocabulary)
+    if asked_here is None and reask:
+        asked_here = _one_clip_reasked(item.question, item.vocabulary)
     if asked_here is None:
         return None
     task, gold = asked_here
     return dataclasses.replace(item, task=task, answer="?", gold=gold, meta={}, objects=[])
 
 
-def question_view(item: QAItem, single_clip: bool = False, trained_one_pass: bool = False) -> QAItem | None:
+def question_view(item: QAItem, single_clip: bool = False, trained_one_pass: bool = False,
+                  reask: bool = False) -> QAItem | None:
     """``item`` as the mode may see it: the question, its videos and options, and what the question asks read from
     its words (:func:`tacreasoner.tasks.conclude.asked`), with no gold answer, gold levels or scenario needs. None when
     the words do not say what is asked (the item is then answered in one pass). ``single_clip``: a question about
     one clip is answered from its reading too (its properties read from the words), else in one pass.
-    ``trained_one_pass``: a question in a trained wording is answered in one pass (None)."""
+    ``trained_one_pass``: a question in a trained wording is answered in one pass (None). ``reask``: a one-clip
+    question asking whether a fruit is real is seen too (as ``RFOR``, to be asked again: :func:`reasked_question`)."""
     if trained_one_pass and trained_wording_of(item.question) is not None:
         return None
-    if item.task.startswith("TFA"):
-        return _single_clip_view(item) if single_clip else None
+    if item.task.startswith("TFA") or item.task == "RFOR":
+        return _single_clip_view(item, reask) if single_clip else None
     if item.task not in REASONED_TASKS:
         return None
     gold: dict[str, Any] = {}
@@ -159,12 +185,13 @@ _SCENARIO = re.compile(r"(?:suited for|an object for|imagine)\s+(.+?)\s*[.?](?:\
 
 
 def free_question_view(question: str, videos: int, vocabulary: str, single_clip: bool = False,
-                       trained_one_pass: bool = False) -> QAItem | None:
+                       trained_one_pass: bool = False, reask: bool = False) -> QAItem | None:
     """A person's question over ``videos`` tactile videos as the stepwise mode's view, read from its words alone:
     a scenario with options "(A) the first object (B) the second object" (TSA), named options, one per video (OSC),
     "more, less or similar" over two videos (PC), a comparative over two (SFD) or a superlative over three (SOI);
     over one video with ``single_clip``, the properties it asks for (TFA). None when it is none of these (answered in
-    one pass); with ``trained_one_pass`` also a question in a trained wording."""
+    one pass); with ``trained_one_pass`` also a question in a trained wording. ``reask``: a one-clip real-or-fake
+    question is seen as ``RFOR`` (:func:`reasked_question`)."""
     if question.count(PLACEHOLDER) != videos or videos < 1:
         return None
     if trained_one_pass and trained_wording_of(question) is not None:
@@ -177,6 +204,8 @@ def free_question_view(question: str, videos: int, vocabulary: str, single_clip:
             task, gold = asked_here
         elif single_clip and (thing := beyond_touch(question, vocabulary)) is not None:
             task, gold = "TFA-combined", {"attributes": [], "beyond_touch": thing}
+        elif single_clip and reask and (fruit_asked := _one_clip_reasked(question, vocabulary)) is not None:
+            task, gold = fruit_asked
     elif options and all(_ORDINAL_OPTION.match(o) for o in options):
         found = _SCENARIO.search(question.replace(PLACEHOLDER, " "))
         if found and len(options) == videos == 2:
@@ -195,6 +224,29 @@ def free_question_view(question: str, videos: int, vocabulary: str, single_clip:
     return QAItem(id=f"asked-{digest}", task=task, question=question, answer="?",
                   gold=gold, videos=[VideoRef(clip_id=f"video{k}") for k in range(videos)], objects=[],
                   vocabulary=vocabulary, options=options if task in ("OSC", "TSA") else [], meta=meta)
+
+
+def reasked_question(view: QAItem) -> str | None:
+    """A view's question in the benchmark's own wording (the plainest template of its kind, its slots from the view:
+    the property and direction a comparison asks, the fruit), for a one-pass answer; None for a task not asked again
+    (:data:`REASKED_TASKS`)."""
+    if view.task not in REASKED_TASKS:
+        return None
+    slots: dict[str, str] = {}
+    if view.task == "RFOR":
+        kind, slots["fruit"] = "RFOR", str(view.gold["fruit"])
+    else:
+        attribute = get_vocabulary(view.vocabulary)[view.gold["attribute"]]
+        slots["attribute"] = attribute.name
+        if view.task == "SFD":
+            kind, slots["comparative"] = f"SFD {view.gold['kind']}", getattr(attribute, view.gold["direction"])
+        elif view.task == "SOI":
+            kind, slots["superlative"] = "SOI", getattr(attribute, view.gold["direction"])
+        else:
+            kind = "PC"
+    template_id = _REASK_TEMPLATE[kind]
+    template = next(t for ts in load_templates().values() for t in ts if t.id == template_id)
+    return template.render(**slots)
 
 
 def _attributes(item: QAItem) -> list[str]:

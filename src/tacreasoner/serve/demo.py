@@ -286,9 +286,9 @@ class DemoCallbacks:
             if view is not None:
                 yield "", "", f"reading each clip ({self.stepwise.answers})…"
                 reply = self.stepwise.answer(self.engine, view, frames)
-                yield reply.reasoning, reply.content or "(no answer)", \
-                    f"{self.stepwise.answers}: {int(reply.timings['steps'])} passes, {reply.completion_tokens} " \
-                    f"tokens in {reply.timings['total_s']:.2f} s"
+                how = f"asked as “{reply.asked_as}”" if reply.asked_as else f"{int(reply.timings['steps'])} passes"
+                yield reply.reasoning, reply.content or "(no answer)", f"{self.stepwise.answers}: {how}, " \
+                    f"{reply.completion_tokens} tokens in {reply.timings['total_s']:.2f} s"
                 return
             parts = {"reasoning": "", "content": ""}
             for piece in self.engine.stream(prompt, sampling):

@@ -120,12 +120,15 @@ class Reply:
     prompt_tokens: int
     completion_tokens: int
     timings: dict[str, float] = field(default_factory=dict)
+    asked_as: str | None = None
+    """The wording the model was asked in where it differs from the user's (a person's question asked again in the
+    benchmark's words: ``serve.stepwise``)."""
 
     def to_dict(self) -> dict[str, Any]:
         return {"think": self.reasoning or None, "answer": self.content or None, "text": self.text,
                 "finish_reason": self.finish_reason,
                 "usage": {"prompt_tokens": self.prompt_tokens, "completion_tokens": self.completion_tokens},
-                "timings": self.timings}
+                "timings": self.timings, **({"asked_as": self.asked_as} if self.asked_as else {})}
 
 
 def check_clip_length(n_frames: int, where: str, param: str | None = None) -> None:

@@ -206,7 +206,8 @@ def create_app(engine: TactileEngine, settings: ServerSettings | None = None) ->
         return {"id": ident, "object": "chat.completion", "created": int(time.time()), "model": engine.name,
                 "choices": [{"index": 0, "message": message, "finish_reason": reply.finish_reason,
                              "logprobs": None}],
-                "usage": _usage(reply), "timings": reply.timings}
+                "usage": _usage(reply), "timings": reply.timings,
+                **({"asked_as": reply.asked_as} if reply.asked_as else {})}
 
     return app
 

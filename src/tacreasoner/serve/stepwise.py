@@ -9,6 +9,7 @@ the step. A question it cannot read is left to the one-pass answer (:meth:`Stepw
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import time
@@ -18,12 +19,14 @@ from typing import Any
 
 from tacreasoner.evaluate.stepwise import (
     READING_TEMPLATE,
+    REASKING_MODES,
     SINGLE_CLIP_MODES,
     STEP_TOKENS,
     TRAINED_ONE_PASS_MODES,
     conclude,
     free_question_view,
     reading_templates,
+    reasked_question,
     steps_for,
 )
 from tacreasoner.model.processing import PROCESSOR_CONFIG_NAME
@@ -100,8 +103,16 @@ class StepwiseAnswerer:
             return None
         return free_question_view(users[0]["content"], len(prompt.videos), self.vocabulary,
                                   single_clip=self.answers in SINGLE_CLIP_MODES,
-                                  trained_one_pass=self.answers in TRAINED_ONE_PASS_MODES)
+                                  trained_one_pass=self.answers in TRAINED_ONE_PASS_MODES,
+                                  reask=self.answers in REASKING_MODES)
 
     def answer(self, engine: TactileEngine, view: QAItem, videos: Sequence[Any],
                timeout_s: float | None = None) -> Reply:
-        return answer_view(engine, view, videos, reading_templates(self.answers), timeout_s)
+        """The reply to a question's ``view``: asked again in the benchmark's words in one pass where this mode does
+        that (``REASKING_MODES``; the reply's ``asked_as`` names the wording), else read stepwise."""
+        question = reasked_question(view) if self.answers in REASKING_MODES else None
+        if question is None:
+            return answer_view(engine, view, videos, reading_templates(self.answers), timeout_s)
+        reply = engine.complete(Prompt.ask(question, videos), Sampling(max_new_tokens=STEP_TOKENS),
+                                timeout_s=timeout_s)
+        return dataclasses.replace(reply, timings={**reply.timings, "steps": 1}, asked_as=question)

@@ -33,11 +33,13 @@ from tacreasoner.tasks.vocab import Attribute, get_vocabulary
 
 __all__ = [
     "BEYOND_TOUCH",
+    "FRUIT_WORDS",
     "PROPERTY_WORDS",
     "REASONED_TASKS",
     "Consistency",
     "Levels",
     "asked",
+    "asked_fruit",
     "asked_properties",
     "beyond_touch",
     "consistency",
@@ -109,15 +111,19 @@ PROPERTY_WORDS: dict[str, tuple[str, ...]] = {
                    "pointy"),
     "elasticity": ("elastic", "spring", "bounc", "rebound", "stretch", "resilien",
                    "snap back", "snaps back", "come back", "comes back", "recover", "rubber", "flexib", "jiggl",
-                   "wobbl", "original shape", "its shape"),
+                   "wobbl", "original shape", "its shape",
+                   # third version (2026-11-29, after the third held-out set was read, before the fourth was):
+                   "into shape", "back to shape", "back in shape", "pop back", "pops back", "spring back",
+                   "return to", "returns to", "regain", "reform", "bounce back"),
     "friction": ("friction", "slip", "grip", "sticky", "slick", "slid", "tacky", "traction",
                  "glide", "glid", "drag", "greas", "oily", "skid", "cling", "grab"),
 }
 """Words (stems: a word starting with one counts) a person uses for each property, from general English, written
 before any evaluation wording was run through it (experiments/2026-11-29_read_single_clip/criteria.md); the second
 version's words (a thesaurus pass) before the third held-out set, written by someone who had not read this list, was
-read (experiments/2026-11-29_person_words). Where a vocabulary has no roughness, its friction takes the roughness
-words (VTV-150K words friction as rough/smooth)."""
+read (experiments/2026-11-29_person_words); the third version's (elasticity's "back into shape" and kin) after that
+set was read and before the fourth was (experiments/2026-11-29_reask). Where a vocabulary has no roughness, its
+friction takes the roughness words (VTV-150K words friction as rough/smooth)."""
 _WHOLE_OBJECT = re.compile(r"\b(feels?\s+like|profile|properties|describe\s+(what|how|this|the)|how\s+does\s+(it|this)"
                            r"\s+(\w+\s+)?feel|what\s+do\s+you\s+feel)\b", re.IGNORECASE)
 
@@ -163,6 +169,34 @@ BEYOND_TOUCH: dict[str, tuple[str, ...]] = {
 """What a person may ask about an object that a vision-based tactile sensor does not sense (its gel images show
 contact geometry and shear, not colour, smell, weight or heat): stems, as :data:`PROPERTY_WORDS`."""
 _REAL_OR_FAKE = re.compile(r"\b(real|fake|artificial|plastic|genuine)\b", re.IGNORECASE)
+_ASKS_REAL = re.compile(r"\b(real|fake|artificial|genuine|imitation|replica|faux|fakes|reals)\b", re.IGNORECASE)
+_ASKS_REAL_IF_FRUIT = re.compile(r"\b(plastic|toy|decoration|decorative|prop)\b", re.IGNORECASE)
+FRUIT_WORDS: tuple[str, ...] = (
+    "apple", "apricot", "avocado", "banana", "blackberry", "blueberry", "cherry", "clementine", "coconut", "fig",
+    "grape", "grapefruit", "guava", "kiwi", "lemon", "lime", "lychee", "mandarin", "mango", "melon", "nectarine",
+    "orange", "papaya", "passion fruit", "peach", "pear", "persimmon", "pineapple", "plum", "pomegranate", "raspberry",
+    "strawberry", "tangerine", "tomato", "watermelon")
+"""Common fruit (general English, not the simulator's list), for reading which fruit a real-or-fake question is
+about."""
+_FRUIT = re.compile(r"\b(" + "|".join(
+    re.escape(f[:-1]) + "(?:y|ies)" if f.endswith("y") else re.escape(f) + "(?:e?s)?"
+    for f in sorted(FRUIT_WORDS, key=len, reverse=True)) + r")\b", re.IGNORECASE)
+
+
+def asked_fruit(question: str, vocabulary: str) -> str | None:
+    """The fruit a question about one clip asks real-or-fake about, read from its words ("Is this strawberry a
+    fake?" → ``strawberry``; ``fruit`` where none is named); None when it asks about a property
+    (:func:`asked_properties`) or not whether the thing is real ("plastic" or "toy" count only beside a fruit)."""
+    text = question.replace(PLACEHOLDER, " ")
+    if asked_properties(text, vocabulary) is not None:
+        return None
+    named = _FRUIT.search(text)
+    if not (_ASKS_REAL.search(text) or (named and _ASKS_REAL_IF_FRUIT.search(text))):
+        return None
+    if named is None:
+        return "fruit"
+    word = named.group(1).lower()
+    return next(f for f in FRUIT_WORDS if word in (f, f + "s", f + "es", f[:-1] + "ies"))
 
 
 def beyond_touch(question: str, vocabulary: str) -> str | None:
