@@ -71,6 +71,8 @@ def main() -> None:
     ap.add_argument("--out", type=Path, required=True)
     ap.add_argument("--split-suffix", default="val", choices=("val", "test"))
     ap.add_argument("--dtype", default="float32")
+    ap.add_argument("--name", help="result file name (default: sensor_transfer_<split>)")
+    ap.add_argument("--trained-on", default="Mini clips only", help="what the models trained on, for the page")
     ap.add_argument("--preparations", nargs="+", default=list(PREPARATIONS), choices=PREPARATIONS,
                     help="which to answer the held-out style with (on test: the chosen one, once)")
     args = ap.parse_args()
@@ -95,13 +97,13 @@ def main() -> None:
     bench = json.loads((args.bench / "bench.json").read_text())
     data = {**info, "bench": portable(str(args.bench)), "models": [portable(str(m)) for m in args.models],
             "seen_split": seen, "heldout_split": held, "heldout_sensor": bench.get("heldout_sensor"),
-            "dtype": args.dtype, "results": results,
+            "dtype": args.dtype, "trained_on": args.trained_on, "results": results,
             "match_adopted_by_rule": adopted if seen == "val" and both else None}
     tasks = list(next(iter(results.values()))["seen"]["tasks"])
     md = header_md(f"A sensor style never seen in training: {seen} (Mini) against {held} "
                    f"({bench.get('heldout_sensor')})", info)
     md += (f"Models: {', '.join(f'`{portable(str(m))}`' for m in args.models)} (the quickstart recipe, one per seed, "
-           f"trained on Mini clips only); weights {args.dtype}; strict answer extraction. The same objects in both "
+           f"trained on {args.trained_on}); weights {args.dtype}; strict answer extraction. The same objects in both "
            f"styles. Rule fixed before the first answer: `match` is adopted if its {held} average beats `as_is`'s "
            "in every seed.\n\n")
     rows = []
@@ -114,7 +116,7 @@ def main() -> None:
     gaps = ", ".join(f"{p} {stat('seen')[0] - stat(p)[0]:+.1f}" for p in args.preparations)
     md += (f"\nGap to the seen style (seen − held-out, mean over seeds): {gaps} points (target ≤ 5)."
            + (f" Rule: `match` {'adopted' if adopted else 'not adopted'}." if seen == "val" and both else "") + "\n")
-    publish(f"sensor_transfer_{seen}", data, md)
+    publish(args.name or f"sensor_transfer_{seen}", data, md)
 
 
 if __name__ == "__main__":
