@@ -50,6 +50,8 @@ def test_the_recipe_runs_end_to_end_and_resumes(physiclear_folder: Path, make_ph
     model = tmp_path / "run" / "train" / "seed0" / "stage2" / "model"
     assert (model / "config.json").is_file()
     assert json.loads((model / "config.json").read_text())["encoder"]["backbone"] == "efficientnet_lite0"
+    # ask/serve/demo answer it the recommended way unless told otherwise
+    assert json.loads((model / "processor_config.json").read_text())["answers"] == "stepwise-vote"
     val = record["results"]["val_benchmark"]
     assert val["hardness"]["n"] == 8 and 0 <= val["hardness"]["accuracy"] <= 1 and val["PSR"] is not None
     heldout = record["results"]["val_heldout"]

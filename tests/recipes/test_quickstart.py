@@ -38,6 +38,7 @@ def test_quickstart_settings_ship_with_the_package_and_name_the_recommended_mode
     given = QuickstartPaths(tmp_path / "qs", llm_dir=tmp_path / "my_llm")
     assert quickstart_config(given, 0).model.llm == str(tmp_path / "my_llm")
     assert settings.eval_dtype == "auto"  # bf16 answering only where the hardware has it (chosen on val)
+    assert settings.answers == "auto"  # how ask/serve/demo answer the published model (chosen on val)
 
 
 def test_quickstart_stages_follow_the_data_flow(tmp_path: Path) -> None:
@@ -88,7 +89,8 @@ def trained_run(inputs: dict, tmp_path_factory: pytest.TempPathFactory) -> tuple
 def test_evaluate_and_report_writes_tables_verdicts_and_publishes_the_model(trained_run) -> None:
     root, _ = trained_run
     paths = QuickstartPaths(root)
-    report = evaluate_and_report(paths, {0: paths.train(0) / "stage2" / "model"}, {"seed0": {"stage2": 1.0}})
+    report = evaluate_and_report(paths, {0: paths.train(0) / "stage2" / "model"}, {"seed0": {"stage2": 1.0}},
+                                 answers="auto")
     text = report.path.read_text()
     assert "Held-out test objects (`test`)" in text and "held-out sensor style" in text
     precision = json.loads((paths.train(0) / "stage2" / "run.json").read_text())["mixed_precision"]
@@ -99,6 +101,9 @@ def test_evaluate_and_report_writes_tables_verdicts_and_publishes_the_model(trai
     tasks = {t["task"] for t in data["splits"]["test"]["tasks"]}
     assert set(report.beats_chance["test"]) == tasks
     assert (paths.model / "config.json").is_file(), "the seed-0 model is published for `tacreasoner ask`"
+    from tacreasoner.serve.stepwise import model_answers
+
+    assert model_answers(paths.model) == "auto" and model_answers(paths.train(0) / "stage2" / "model") == "direct"
     lines = (paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines()
     cut = sum(json.loads(line)["cut"] for line in lines)  # each line says whether the 64-token budget stopped it
     assert ("stopped at the 64-token budget" in text) == (cut > 0)

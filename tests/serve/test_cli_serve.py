@@ -193,6 +193,19 @@ def test_ask_stepwise_reads_each_video_and_shows_the_readings(served_model: Path
                                    "--model", str(dyntac), "--answers", "auto", "--json"])
     assert own.exit_code == 0, own.output
     assert json.loads(own.stdout)["answer"] in get_vocabulary("vtv150k")["hardness"].levels
+    # without --answers, the mode its recipe recorded in the folder (else direct)
+    from tacreasoner.model.processing import record_answers
+
+    plain = CliRunner().invoke(app, ["ask", "How firm does this feel? <tactile>", "--video", str(clip_files[0]),
+                                     "--model", str(dyntac), "--json"])
+    assert "steps" not in json.loads(plain.stdout)["timings"]  # direct: one pass
+    (dyntac / "processor_config.json").unlink()
+    (dyntac / "processor_config.json").write_text(json.dumps({**config, "vocabulary": "vtv150k"}))
+    record_answers(dyntac, "auto")
+    recorded = CliRunner().invoke(app, ["ask", "How firm does this feel? <tactile>", "--video", str(clip_files[0]),
+                                        "--model", str(dyntac), "--json"])
+    said = json.loads(recorded.stdout)
+    assert said["answers"] == "auto" and said["timings"]["steps"] == 4
     bad = CliRunner().invoke(app, [*base, "--vocabulary", "octopi"])
     assert bad.exit_code == 2 and "unknown vocabulary 'octopi'" in bad.output
 

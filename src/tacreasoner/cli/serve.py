@@ -22,14 +22,17 @@ ASK_OPTIONS = {"max_tokens": "--max-new-tokens", "temperature": "--temperature",
 ModelDir = Annotated[Path, typer.Option("--model", help="Trained model directory (a training run's stage2/model).")]
 Host = Annotated[str, typer.Option(help="Address to listen on (0.0.0.0 for every interface).")]
 Port = Annotated[int, typer.Option(help="TCP port.")]
-Answers = Annotated[str, typer.Option(
-    "--answers", help="direct: one pass; stepwise: a question comparing objects (which is softer, more/less/similar, "
+Answers = Annotated[str | None, typer.Option(
+    "--answers", show_default=False, help="Default: the mode recorded in the model folder by its recipe (the "
+                      "quickstart's auto, the PhysiCLeAR recipe's stepwise-vote), else direct. direct: one pass; "
+                      "stepwise: a question comparing objects (which is softer, more/less/similar, "
                       "the roughest of three, which named object is which, which suits a scenario) is answered by "
                       "reading each video in a pass of its own and concluding by rule, the readings shown (other "
                       "questions, and sampled ones, in one pass); stepwise-vote: each video read in every "
                       "single-clip wording, the majority level (how evaluate-physiclear answers; recommended for a "
-                      "PhysiCLeAR model); auto: a question in a wording the model was trained on in one pass, any "
-                      "other as stepwise-vote.")]
+                      "PhysiCLeAR model); auto: a question in a wording the model was trained on in one pass, a "
+                      "comparison or real-or-fake question in other words asked again in the benchmark's, any other "
+                      "as stepwise-vote.")]
 Vocabulary = Annotated[str | None, typer.Option(
     "--vocabulary", help="With --answers stepwise[-vote]/auto: the level words the model was trained on (physiclear: "
                          "soft / moderately hard / hard …; vtv150k: DynTAC-Sim's). Default: the one recorded in the "
@@ -74,16 +77,17 @@ def ask(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object (think, answer, timings) "
                                                          "instead of streaming.")] = False,
     dtype: Dtype = "float32",
-    answers: Answers = "direct",
+    answers: Answers = None,
     vocabulary: Vocabulary = None,
 ) -> None:
     """Ask a trained model about tactile videos; streams its reasoning as it is generated, then the answer."""
     needs_train_extra("ask")
     from tacreasoner.evaluate.predict import check_dtype
     from tacreasoner.serve import Delta, Prompt, Reply, RequestError, Sampling
-    from tacreasoner.serve.stepwise import StepwiseAnswerer, model_vocabulary
+    from tacreasoner.serve.stepwise import StepwiseAnswerer, model_answers, model_vocabulary
 
     check_dtype(dtype)
+    answers = answers or model_answers(model)
     stepwise = StepwiseAnswerer(answers, vocabulary or model_vocabulary(model))
     for path in video:
         if not path.is_file():
@@ -114,7 +118,11 @@ def ask(
                 console.print(f"[dim]stepwise: {int(stepped.timings['steps'])} passes, {stepped.completion_tokens} "
                               f"tokens in {stepped.timings['total_s']:.2f} s[/dim]")
             return
-        console.print("[dim]stepwise: not a comparison it reads (see --answers); answered in one pass[/dim]")
+        from tacreasoner.tasks.paraphrase import trained_wording_of
+
+        why = "a wording the model was trained on" if answers == "auto" and trained_wording_of(question) else \
+            "not a question it reads (see --answers)"
+        console.print(f"[dim]{answers}: {why}; answered in one pass[/dim]")
     if as_json:
         reply = engine.complete(prompt, sampling)
         typer.echo(json.dumps({"model": str(model), "videos": [str(v) for v in video], **reply.to_dict()}))
@@ -169,7 +177,7 @@ def serve(
         "--threads", help="CPU threads the model may use (torch.set_num_threads; at least 1). Default: torch's "
                           "choice (usually one per core).", show_default=False)] = None,
     dtype: Dtype = "float32",
-    answers: Answers = "direct",
+    answers: Answers = None,
     vocabulary: Vocabulary = None,
 ) -> None:
     """Serve a trained model with the OpenAI chat completions API (videos as video_url parts)."""
@@ -179,8 +187,9 @@ def serve(
     from tacreasoner.serve.http import bind_socket, serve_forever
     from tacreasoner.serve.media import MediaLimits
     from tacreasoner.serve.openai_api import ServerSettings, create_app
-    from tacreasoner.serve.stepwise import model_vocabulary
+    from tacreasoner.serve.stepwise import model_answers, model_vocabulary
 
+    answers = answers or model_answers(model)
     for value, option in ((max_batch, "--max-batch"), (max_pending, "--max-pending"), (max_videos, "--max-videos"),
                           (threads, "--threads")):
         at_least_one(option, value)
@@ -221,7 +230,7 @@ def demo(
     examples: Annotated[Path, typer.Option(help="Where the simulated example clips are made (once).")] =
         Path("runs/demo_examples"),
     dtype: Dtype = "float32",
-    answers: Answers = "direct",
+    answers: Answers = None,
     vocabulary: Vocabulary = None,
 ) -> None:
     """A web page: upload 1-3 tactile clips (or pick simulated ones), see what the sensor felt, ask, watch the
@@ -231,9 +240,10 @@ def demo(
     from tacreasoner.evaluate.predict import check_dtype
     from tacreasoner.serve.demo import build_demo, example_clips
     from tacreasoner.serve.http import bind_socket
-    from tacreasoner.serve.stepwise import StepwiseAnswerer, model_vocabulary
+    from tacreasoner.serve.stepwise import StepwiseAnswerer, model_answers, model_vocabulary
 
     check_dtype(dtype)
+    answers = answers or model_answers(model)
     stepwise = StepwiseAnswerer(answers, vocabulary or model_vocabulary(model))
     bind_socket(host, port).close()  # a taken port is found now, not after loading the model
     engine = _load_engine(model, dtype=dtype)

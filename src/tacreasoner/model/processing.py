@@ -38,7 +38,8 @@ from tacreasoner.model.video_processing import (
 )
 from tacreasoner.tasks.schema import PLACEHOLDER
 
-__all__ = ["IGNORE_INDEX", "OPTION_MASK_OFFSET", "PROCESSOR_CONFIG_NAME", "TacReasonerProcessor", "option_spans"]
+__all__ = ["IGNORE_INDEX", "OPTION_MASK_OFFSET", "PROCESSOR_CONFIG_NAME", "TacReasonerProcessor", "option_spans",
+           "record_answers"]
 
 IGNORE_INDEX = -100
 PROCESSOR_CONFIG_NAME = "processor_config.json"
@@ -116,7 +117,7 @@ class TacReasonerProcessor:
     def __init__(self, tokenizer: PreTrainedTokenizerBase, video_config: VideoProcessingConfig | None = None, *,
                  tokens_per_video: int = 5, sensor_types: Sequence[str] = DEFAULT_SENSOR_TYPES,
                  system_prompt: str | None = None, video_labels: bool = False, option_marker: str = "",
-                 vocabulary: str | None = None) -> None:
+                 vocabulary: str | None = None, answers: str | None = None) -> None:
         if tokens_per_video < 1:
             raise ValueError(f"tokens_per_video must be ≥ 1, got {tokens_per_video}")
         self.tokenizer = tokenizer
@@ -129,6 +130,9 @@ class TacReasonerProcessor:
         self.vocabulary = vocabulary
         """The answer vocabulary of the benchmark the model was trained on (its level words), recorded at saving:
         how ``ask``/``serve``/``demo`` read a clip stepwise unless told otherwise."""
+        self.answers = answers
+        """The answering mode its recipe recommends (``auto``, ``stepwise-vote``, …; chosen on val and recorded by the
+        recipe: :func:`record_answers`): how ``ask``/``serve``/``demo`` answer unless told otherwise."""
         self._option_pattern = re.compile(self.option_marker) if self.option_marker else None
         self.tactile_token_id = self._single_token_id(TACTILE_PAD)
         if getattr(tokenizer, "chat_template", None) is None:
@@ -407,7 +411,8 @@ class TacReasonerProcessor:
                 "tokens_per_video": self.tokens_per_video, "sensor_types": list(self.sensor_types),
                 "system_prompt": self.system_prompt, "video_labels": self.video_labels,
                 "option_marker": self.option_marker,
-                **({"vocabulary": self.vocabulary} if self.vocabulary else {})}
+                **({"vocabulary": self.vocabulary} if self.vocabulary else {}),
+                **({"answers": self.answers} if self.answers else {})}
 
     def save_pretrained(self, directory: str | os.PathLike[str], **kwargs: Any) -> None:
         directory = Path(directory)
@@ -421,7 +426,7 @@ class TacReasonerProcessor:
         path = directory / PROCESSOR_CONFIG_NAME
         data = read_json_object(path, "a processor config written by TacReasonerProcessor.save_pretrained")
         known = {"processor_class", "video", "tokens_per_video", "sensor_types", "system_prompt", "video_labels",
-                 "option_marker", "vocabulary"}
+                 "option_marker", "vocabulary", "answers"}
         if unknown := sorted(set(data) - known):
             raise ValueError(f"{path}: unknown keys {unknown}; known: {', '.join(sorted(known))}")
         tokenizer = AutoTokenizer.from_pretrained(directory)
@@ -429,4 +434,16 @@ class TacReasonerProcessor:
                    tokens_per_video=int(data.get("tokens_per_video", 5)),
                    sensor_types=data.get("sensor_types", DEFAULT_SENSOR_TYPES), system_prompt=data.get("system_prompt"),
                    video_labels=bool(data.get("video_labels", False)),
-                   option_marker=str(data.get("option_marker") or ""), vocabulary=data.get("vocabulary"))
+                   option_marker=str(data.get("option_marker") or ""), vocabulary=data.get("vocabulary"),
+                   answers=data.get("answers"))
+
+
+def record_answers(model_dir: str | os.PathLike[str], answers: str) -> None:
+    """Record in a saved model folder the answering mode its recipe recommends (``processor_config.json``'s
+    ``answers``), so ``ask``/``serve``/``demo`` answer that way by default; the weights are untouched."""
+    path = Path(model_dir) / PROCESSOR_CONFIG_NAME
+    data = read_json_object(path, "a processor config written by TacReasonerProcessor.save_pretrained")
+    if data.get("answers") != answers:
+        tmp = path.with_suffix(".json.tmp")
+        tmp.write_text(json.dumps({**data, "answers": answers}, indent=2) + "\n", encoding="utf-8")
+        os.replace(tmp, path)

@@ -65,6 +65,7 @@ def run_recipe(data: str | Path, out: str | Path, *, seeds: Sequence[int] = (0,)
     """Run the recipe (module doc); returns what ``recipe.json`` holds. ``encoder``: ``encoder get`` settings other
     than the chosen defaults (layer, size, frames, sampling, background)."""
     from tacreasoner.data.readers import read_physiclear
+    from tacreasoner.model.processing import PROCESSOR_CONFIG_NAME, record_answers
     from tacreasoner.recipes.machine import cpu_name
     from tacreasoner.train.run import stage_done
 
@@ -100,6 +101,8 @@ def run_recipe(data: str | Path, out: str | Path, *, seeds: Sequence[int] = (0,)
         for stage in (1, 2):
             step(f"seed{seed}.stage{stage}", cfg.stage(stage).skip or stage_done(cfg, stage),
                  lambda cfg=cfg, stage=stage: _train(cfg, stage))
+        if (paths.model(seed) / PROCESSOR_CONFIG_NAME).is_file():  # how ask/serve/demo answer it by default
+            record_answers(paths.model(seed), RECOMMENDED_ANSWERS)
     results: dict[str, Any] = record.setdefault("results", {})
     if evaluate and "val" in labelled:
         models = [paths.model(s) for s in seeds]

@@ -43,10 +43,12 @@ class QuickstartSettings:
     eval_batch_size: int
     max_new_tokens: int
     eval_dtype: str = "float32"
+    answers: str = "direct"
+    """How ``ask``/``serve``/``demo`` answer the published model by default (recorded in its folder)."""
 
     @classmethod
     def load(cls, path: Path = QUICKSTART_SETTINGS) -> QuickstartSettings:
-        from tacreasoner.evaluate.predict import check_dtype
+        from tacreasoner.evaluate.predict import check_answers, check_dtype
 
         data, _ = read_yaml(path)
         try:
@@ -54,7 +56,8 @@ class QuickstartSettings:
             return cls(objects=int(sim["objects"]), repeats=int(sim["repeats"]), sensors=list(sim["sensors"]),
                        encoder=dict(data["encoder"]), train_config=str(train["config"]), llm=str(train["llm"]),
                        eval_batch_size=int(evaluate["batch_size"]), max_new_tokens=int(evaluate["max_new_tokens"]),
-                       eval_dtype=str(check_dtype(evaluate.get("dtype", "float32"))))
+                       eval_dtype=str(check_dtype(evaluate.get("dtype", "float32"))),
+                       answers=check_answers(str((data.get("serve") or {}).get("answers", "direct"))))
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"{path}: not a quickstart settings file ({exc})") from None
 
@@ -156,7 +159,7 @@ def quickstart_stages(run: QuickstartRun, settings: QuickstartSettings | None = 
 
         report = evaluate_and_report(paths, trained, timings, batch_size=settings.eval_batch_size,
                                      max_new_tokens=settings.max_new_tokens, dtype=settings.eval_dtype,
-                                     progress=progress)
+                                     progress=progress, answers=settings.answers)
         return [*report.summary_lines, f"report: {report.path}"]
 
     def ask() -> list[str]:

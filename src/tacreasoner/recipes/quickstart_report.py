@@ -42,11 +42,16 @@ def evaluate_seeds(models: dict[int, Path], bench: Path, out: Path, splits: tupl
     return reports
 
 
-def publish_model(model_dir: Path, target: Path) -> Path:
-    """Copy the seed-0 model to ``target`` (what ``tacreasoner ask`` uses by default)."""
+def publish_model(model_dir: Path, target: Path, answers: str | None = None) -> Path:
+    """Copy the seed-0 model to ``target`` (what ``tacreasoner ask`` uses by default), recording ``answers`` in it
+    as its recommended answering mode."""
+    from tacreasoner.model.processing import record_answers
+
     if target.exists():
         shutil.rmtree(target)
     shutil.copytree(model_dir, target)
+    if answers is not None:
+        record_answers(target, answers)
     return target
 
 
@@ -121,8 +126,10 @@ def _precision_note(models: dict[int, Path]) -> str:
 
 def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings: dict[str, Any], *,
                         batch_size: int = 48, max_new_tokens: int = 64, dtype: str | None = None,
-                        progress: Callable[[str], Callable[[int, int], None]] | None = None) -> QuickstartReport:
-    """Evaluate every seed's model on the test split(s) and write ``report.md`` + ``report.json``."""
+                        progress: Callable[[str], Callable[[int, int], None]] | None = None,
+                        answers: str = "direct") -> QuickstartReport:
+    """Evaluate every seed's model on the test split(s), write ``report.md`` + ``report.json`` and publish seed 0's
+    model with ``answers`` recorded as how ``ask``/``serve``/``demo`` answer it by default."""
     from datetime import datetime, timezone
 
     splits = ("test", "test_heldout_sensor") if (paths.bench / "test_heldout_sensor.jsonl").is_file() else ("test",)
@@ -166,7 +173,7 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
         {"splits": {s: r.to_dict() for s, r in reports.items()}, "beats_chance": verdicts, "timings": timings,
          "eval_seconds": eval_seconds, "seeds": sorted(models)}, indent=2, default=str) + "\n", encoding="utf-8")
     if models:
-        publish_model(Path(models[min(models)]), paths.model)
+        publish_model(Path(models[min(models)]), paths.model, answers)
     return QuickstartReport(path, summary, verdicts)
 
 

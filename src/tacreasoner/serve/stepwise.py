@@ -34,7 +34,7 @@ from tacreasoner.serve.engine import Prompt, Reply, Sampling, TactileEngine
 from tacreasoner.serve.stream import split_channels
 from tacreasoner.tasks.schema import QAItem
 
-__all__ = ["StepwiseAnswerer", "answer_stepwise", "answer_view", "model_vocabulary"]
+__all__ = ["StepwiseAnswerer", "answer_stepwise", "answer_view", "model_answers", "model_vocabulary"]
 
 
 def answer_view(engine: TactileEngine, view: QAItem, videos: Sequence[Any],
@@ -69,14 +69,24 @@ def answer_stepwise(engine: TactileEngine, question: str, videos: Sequence[Any],
     return None if view is None else answer_view(engine, view, videos, templates, timeout_s)
 
 
-def model_vocabulary(model_dir: str | os.PathLike[str]) -> str:
-    """The level words a model folder was trained on (``processor_config.json``'s ``vocabulary``, recorded at saving
-    since 2026-11-29); ``physiclear`` for a folder saved before then or without it."""
+def _processor_config(model_dir: str | os.PathLike[str]) -> dict[str, Any]:
     try:
         data = json.loads((Path(model_dir) / PROCESSOR_CONFIG_NAME).read_text(encoding="utf-8"))
     except (OSError, ValueError):
-        return "physiclear"
-    return str(data.get("vocabulary") or "physiclear") if isinstance(data, dict) else "physiclear"
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def model_vocabulary(model_dir: str | os.PathLike[str]) -> str:
+    """The level words a model folder was trained on (``processor_config.json``'s ``vocabulary``, recorded at saving
+    since 2026-11-29); ``physiclear`` for a folder saved before then or without it."""
+    return str(_processor_config(model_dir).get("vocabulary") or "physiclear")
+
+
+def model_answers(model_dir: str | os.PathLike[str]) -> str:
+    """The answering mode a model folder's recipe recommends (``processor_config.json``'s ``answers``: the
+    quickstart's ``auto``, the PhysiCLeAR recipe's ``stepwise-vote``); ``direct`` where none is recorded."""
+    return str(_processor_config(model_dir).get("answers") or "direct")
 
 
 class StepwiseAnswerer:
