@@ -394,5 +394,8 @@ def test_a_real_or_fake_question_in_a_persons_words_is_asked_again_with_its_frui
     assert view("<tactile>\nIs it the real thing?").gold == {"fruit": "fruit"}  # type: ignore[union-attr]
     assert view("<tactile>\nIs this plastic?") is None  # plastic alone: not asked about a fruit
     assert view("<tactile>\nIs this fake orange soft?").task == "TFA-hardness"  # type: ignore[union-attr]
+    squishy = "<tactile>\nJudging by how squishy it is, is this peach real or fake?"  # the property is the grounds
+    assert view(squishy).gold == {"fruit": "peach"}  # type: ignore[union-attr]
+    assert view(squishy, mode_reasks=False) is None  # never read as a hardness question
     assert view("<tactile>\nIs this peach real?", mode_reasks=False) is None  # stepwise-vote: one pass as asked
     assert view("<tactile>\nIs this banana real or fake?") is None  # the benchmark's own words: one pass

@@ -131,22 +131,23 @@ def _one_clip_asked(question: str, vocabulary: str) -> tuple[str, dict[str, Any]
     return (f"TFA-{found[0]}" if len(found) == 1 else "TFA-combined"), {"attributes": found}
 
 
-def _one_clip_reasked(question: str, vocabulary: str) -> tuple[str, dict[str, Any]] | None:
-    """A question about one clip that asks whether the fruit is real, as (``RFOR``, its fruit), when it is not in a
-    trained wording (:func:`tacreasoner.tasks.conclude.asked_fruit`)."""
-    if trained_wording_of(question) is not None or (fruit := asked_fruit(question, vocabulary)) is None:
+def _one_clip_view_asked(question: str, vocabulary: str, reask: bool) -> tuple[str, dict[str, Any]] | None:
+    """What a question about one clip in untrained words asks, as (task, view gold): whether a fruit is real first
+    (``RFOR`` with its fruit, :func:`tacreasoner.tasks.conclude.asked_fruit`; seen only with ``reask``, else left to
+    one pass: never read as a property), else the properties it names (:func:`_one_clip_asked`)."""
+    if trained_wording_of(question) is not None:
         return None
-    return "RFOR", {"fruit": fruit}
+    properties = _one_clip_asked(question, vocabulary)
+    if (fruit := asked_fruit(question, names_property=properties is not None)) is not None:
+        return ("RFOR", {"fruit": fruit}) if reask else None
+    return properties
 
 
 def _single_clip_view(item: QAItem, reask: bool = False) -> QAItem | None:
-    """A question about one clip as the mode sees it (:func:`_one_clip_asked`; with ``reask`` also a real-or-fake
-    one)."""
+    """A question about one clip as the mode sees it (:func:`_one_clip_view_asked`)."""
     if len(item.videos) != 1:
         return None
-    asked_here = _one_clip_asked(item.question, item.vocabulary)
-    if asked_here is None and reask:
-        asked_here = _one_clip_reasked(item.question, item.vocabulary)
+    asked_here = _one_clip_view_asked(item.question, item.vocabulary, reask)
     if asked_here is None:
         return None
     task, gold = asked_here
@@ -200,12 +201,11 @@ def free_question_view(question: str, videos: int, vocabulary: str, single_clip:
     meta: dict[str, Any] = {}
     task, gold = None, None
     if videos == 1:
-        if single_clip and (asked_here := _one_clip_asked(question, vocabulary)) is not None:
+        if single_clip and (asked_here := _one_clip_view_asked(question, vocabulary, reask)) is not None:
             task, gold = asked_here
-        elif single_clip and (thing := beyond_touch(question, vocabulary)) is not None:
+        elif single_clip and asked_fruit(question) is None and \
+                (thing := beyond_touch(question, vocabulary)) is not None:
             task, gold = "TFA-combined", {"attributes": [], "beyond_touch": thing}
-        elif single_clip and reask and (fruit_asked := _one_clip_reasked(question, vocabulary)) is not None:
-            task, gold = fruit_asked
     elif options and all(_ORDINAL_OPTION.match(o) for o in options):
         found = _SCENARIO.search(question.replace(PLACEHOLDER, " "))
         if found and len(options) == videos == 2:

@@ -183,15 +183,21 @@ _FRUIT = re.compile(r"\b(" + "|".join(
     for f in sorted(FRUIT_WORDS, key=len, reverse=True)) + r")\b", re.IGNORECASE)
 
 
-def asked_fruit(question: str, vocabulary: str) -> str | None:
+_REAL_CHOICE = re.compile(r"\b(real|genuine|fake)\s+(one\s+)?or\b|\bor\s+(an?\s+)?(fake|real|artificial|plastic|"
+                          r"imitation|genuine|toy)\b", re.IGNORECASE)
+
+
+def asked_fruit(question: str, names_property: bool = False) -> str | None:
     """The fruit a question about one clip asks real-or-fake about, read from its words ("Is this strawberry a
-    fake?" → ``strawberry``; ``fruit`` where none is named); None when it asks about a property
-    (:func:`asked_properties`) or not whether the thing is real ("plastic" or "toy" count only beside a fruit)."""
+    fake?" → ``strawberry``; ``fruit`` where none is named); None when it does not ask whether the thing is real
+    ("plastic" or "toy" count only beside a fruit). ``names_property``: the question also names a property
+    (:func:`asked_properties`); it then asks real-or-fake only where it offers the two as choices ("Judging by how
+    squishy it is, is this peach real or fake?", not "Is this fake orange soft?")."""
     text = question.replace(PLACEHOLDER, " ")
-    if asked_properties(text, vocabulary) is not None:
-        return None
     named = _FRUIT.search(text)
     if not (_ASKS_REAL.search(text) or (named and _ASKS_REAL_IF_FRUIT.search(text))):
+        return None
+    if names_property and not _REAL_CHOICE.search(text):
         return None
     if named is None:
         return "fruit"
