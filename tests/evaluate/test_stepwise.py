@@ -321,7 +321,7 @@ def test_only_the_benchmarks_and_trainings_own_wordings_count_as_trained() -> No
     items = build_items(make_clips(n_objects=12, repeats=2), tasks=["TFA-hardness", "TFA-combined", "SFD", "PC", "SOI"],
                         vocabulary="physiclear", split="val", seed=0)
     assert all(trained_wording_of(i.question) is not None for i in items)
-    for wording in ("heldout", "heldout2", "heldout3", "heldout4"):
+    for wording in ("heldout", "heldout2", "heldout3", "heldout4", "heldout5"):
         assert all(trained_wording_of(i.question) is None for i in reword_items(items, wording))
     # a bare "<tactile>\n{attribute}?" training wording matches a property name there, not any question
     assert trained_wording_of("<tactile>\nhardness?") == "tr_tfa_rate_short"

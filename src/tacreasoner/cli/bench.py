@@ -56,8 +56,8 @@ def paraphrase_bench_cmd(
     bench: Annotated[Path, typer.Option("--bench", help="A benchmark directory (build-bench).")],
     out: Annotated[Path, typer.Option("--out", help="The new benchmark directory.")],
     splits: Annotated[str, typer.Option("--splits", help="Comma-separated evaluation splits to re-word.")] = "val,test",
-    wording: Annotated[str, typer.Option("--wording", help="heldout, heldout2, heldout3 or heldout4 (sets written "
-                                                          "later: tasks/paraphrases/heldout2.yaml … heldout4.yaml)."
+    wording: Annotated[str, typer.Option("--wording", help="heldout, heldout2 … heldout5 (sets written "
+                                                          "later: tasks/paraphrases/heldout2.yaml … heldout5.yaml)."
                                                           )] = "heldout",
 ) -> None:
     """A copy of a benchmark's evaluation splits asked in held-out wordings (never used in training), to score how a

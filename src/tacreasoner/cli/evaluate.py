@@ -162,7 +162,7 @@ def evaluate_physiclear_cmd(
     wording: Annotated[str, typer.Option(
         "--wording", help="benchmark: the benchmark's question templates; heldout: the same items asked in wordings "
                           "no training used (tasks/paraphrases/heldout.yaml; tasks without one are left out); "
-                          "heldout2 … heldout4: later such sets (heldout2.yaml … heldout4.yaml).")
+                          "heldout2 … heldout5: later such sets (heldout2.yaml … heldout5.yaml).")
                        ] = "benchmark",
     answers: Answers = "stepwise-vote",
 ) -> None:
