@@ -17,3 +17,7 @@ for s in 0 1 2; do
   date
 done
 echo DONE
+# PhysiCLeAR: the shipped recipe's three seeds, its recommended stepwise-vote (re-asking does not apply to it)
+P=runs/physiclear/runs
+[ -f runs/words/pc_h4/octopi.json ] || $T evaluate-physiclear --model $P/rec.seed0/stage2/model --model $P/rec.seed1/stage2/model --model $P/rec.seed2/stage2/model --data ../shared/data/physiclear --split val --wording heldout4 --answers stepwise-vote --out runs/words/pc_h4
+echo DONE_PC

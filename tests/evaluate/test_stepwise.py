@@ -278,6 +278,26 @@ def test_stepwise_vote_reads_each_clip_in_every_wording(answered: dict[str, Any]
     assert {r["answers"] for r in lines if "answers" in r} == {"stepwise-vote"}
 
 
+def test_auto_answers_a_persons_comparison_asked_again_and_records_the_wording(answered: dict[str, Any]) -> None:
+    from tacreasoner.evaluate.predict import answerer_id, predict_items
+    from tacreasoner.tasks.paraphrase import reword_items, trained_wording_of
+
+    worded = [i for i in reword_items(answered["items"], "heldout3") if i.task in ("SFD", "SOI", "PC")]
+    assert worded, "the picked items have comparisons with held-out wordings"
+    out = answered["out"].with_name("auto.jsonl")
+    predict_items(answered["model"], answered["processor"], worded, answered["root"], out, max_new_tokens=8,
+                  answers="auto", answered_by="me, auto")
+    lines = {r["id"]: r for r in map(json.loads, out.read_text().splitlines())}
+    assert set(lines) == {i.id for i in worded}
+    for item in worded:
+        record = lines[item.id]
+        assert trained_wording_of(record["asked_as"]) is not None and "steps" not in record
+        if item.task == "SOI":  # three wordings: the majority's reply, every reply kept
+            assert [a["question"] for a in record["asked_again"]][1:] and \
+                record["prediction"] in [a["prediction"] for a in record["asked_again"]]
+    assert "asked again in the benchmark's words" in answerer_id(Path("."), Path("."), answers="auto")
+
+
 def test_a_one_clip_question_in_untrained_words_is_answered_from_its_reading() -> None:
     from tacreasoner.evaluate.stepwise import VOTE_TEMPLATES, free_question_view
     from tacreasoner.tasks.paraphrase import reword
@@ -362,7 +382,8 @@ def test_auto_asks_a_persons_comparison_again_in_the_benchmarks_own_words(vocabu
 
     tasks = ["TFA-hardness", "SFD", "SOI", *(["PC"] if vocabulary == "physiclear" else [])]
     items = build_items(make_clips(n_objects=12, repeats=2), tasks=tasks, vocabulary=vocabulary, split="val", seed=0)
-    plain = {"sfd_which": "sfd_which_plain", "sfd_yesno": "sfd_yesno_plain", "soi": "soi_plain", "pc": "pc_compared"}
+    chosen = {"sfd_which": ("sfd_which_touch",), "sfd_yesno": ("sfd_yesno_touch",),
+              "soi": ("soi_plain", "soi_labelled", "soi_touch"), "pc": ("pc_compared",)}  # reask_wordings_val.md
     templates = {t.id: t for ts in load_templates().values() for t in ts}
     for wording in ("heldout3", "heldout4"):
         worded = reword_items(items, wording)
@@ -377,20 +398,21 @@ def test_auto_asks_a_persons_comparison_again_in_the_benchmarks_own_words(vocabu
                 continue
             kind = {"SOI": "soi", "PC": "pc"}.get(item.task) or \
                 ("sfd_yesno" if item.answer in ("yes", "no") else "sfd_which")
-            assert reasked[item.id] == templates[plain[kind]].render(**item.meta["slots"]), item.question
-            assert trained_wording_of(reasked[item.id]) is not None
+            assert reasked[item.id] == tuple(templates[t].render(**item.meta["slots"]) for t in chosen[kind])
+            assert all(trained_wording_of(q) is not None for q in reasked[item.id])
         assert len(reasked) >= 0.9 * len(compared)
 
 
 def test_a_real_or_fake_question_in_a_persons_words_is_asked_again_with_its_fruit() -> None:
-    from tacreasoner.evaluate.stepwise import free_question_view, reasked_question
+    from tacreasoner.evaluate.stepwise import free_question_view, reasked_questions
 
     def view(question: str, mode_reasks: bool = True) -> QAItem | None:
         return free_question_view(question, 1, "vtv150k", single_clip=True, trained_one_pass=True, reask=mode_reasks)
 
     found = view("Could these strawberries be plastic ones? <tactile>")
     assert found is not None and found.task == "RFOR" and found.gold == {"fruit": "strawberry"}
-    assert reasked_question(found) == "<tactile>\nIs this strawberry real or fake?"
+    assert reasked_questions(found) == ("A tactile sensor pressed on something that looks like a strawberry: "
+                                        "<tactile>\nIs it a real strawberry or a fake one?",)
     assert view("<tactile>\nIs it the real thing?").gold == {"fruit": "fruit"}  # type: ignore[union-attr]
     assert view("<tactile>\nIs this plastic?") is None  # plastic alone: not asked about a fruit
     assert view("<tactile>\nIs this fake orange soft?").task == "TFA-hardness"  # type: ignore[union-attr]
@@ -399,3 +421,13 @@ def test_a_real_or_fake_question_in_a_persons_words_is_asked_again_with_its_frui
     assert view(squishy, mode_reasks=False) is None  # never read as a hardness question
     assert view("<tactile>\nIs this peach real?", mode_reasks=False) is None  # stepwise-vote: one pass as asked
     assert view("<tactile>\nIs this banana real or fake?") is None  # the benchmark's own words: one pass
+
+
+def test_a_question_asked_again_in_several_wordings_gives_the_majoritys_reply() -> None:
+    from tacreasoner.evaluate.stepwise import pick_reasked
+
+    first, second = "<answer>the first object</answer>", "<answer>the second object</answer>"
+    assert pick_reasked([first, second, "<answer>Second.</answer>"]) == 1  # the ordinal counts, not the phrase
+    assert pick_reasked([first, second, "<think>no answer"]) == 0  # a tie: the first wording's answer
+    assert pick_reasked(["rambling", second, first]) == 1  # the first wording unreadable: the earliest of the tie
+    assert pick_reasked(["", "still nothing"]) == 0

@@ -173,12 +173,17 @@ def test_ask_stepwise_reads_each_video_and_shows_the_readings(served_model: Path
                                             *two, "--model", str(served_model), "--answers", mode, "--json"])
         said = json.loads(compared.stdout)
         assert said["timings"]["steps"] == steps
-        assert said.get("asked_as") == ("<tactile>\n<tactile>\nThese tactile videos show two different objects. "
-                                        "Which object is harder?" if mode == "auto" else None)
+        assert said.get("asked_as") == ("A sensor touched two objects in turn: <tactile> then <tactile>\nWhich of "
+                                        "the two objects feels harder?" if mode == "auto" else None)
     fruit = CliRunner().invoke(app, ["ask", "Is this orange a fake? <tactile>", "--video", str(clip_files[0]),
                                      "--model", str(served_model), "--answers", "auto"])
     assert fruit.exit_code == 0 and "asked in the benchmark's words, one pass: " in fruit.output
-    assert "Is this orange real or fake?" in fruit.output
+    assert "Is it a real orange or a fake one?" in fruit.output
+    three = CliRunner().invoke(app, ["ask", "Of these, which is the softest? <tactile> <tactile> <tactile>", *two,
+                                     "--video", str(clip_files[0]), "--model", str(served_model), "--answers", "auto",
+                                     "--json"])
+    voted = json.loads(three.stdout)
+    assert voted["timings"]["steps"] == 3 and "softest" in voted["asked_as"]  # SOI: three wordings, the majority
     # without --vocabulary the clip is read in the level words recorded in the model folder
     from tacreasoner.tasks.vocab import get_vocabulary
 

@@ -178,7 +178,8 @@ def test_a_stepwise_demo_shows_each_clips_reading_for_a_comparison(served_model:
     assert "passes" not in one_status  # one clip: one pass, as before
     auto = DemoCallbacks(engine, {}, warn=pytest.fail, stepwise=StepwiseAnswerer("auto", "physiclear"))
     *_, (_, _, asked_status) = auto.ask([str(clip_files[0])], None, "Is this lemon a fake one?", False)
-    assert asked_status.startswith("auto: asked as “<tactile>\nIs this lemon real or fake?”")
+    assert asked_status.startswith("auto: asked as “A tactile sensor pressed on something that looks like a lemon: "
+                                   "<tactile>\nIs it a real lemon or a fake one?”")
 
 
 @pytest.fixture(scope="module")

@@ -347,7 +347,7 @@ def test_a_stepwise_server_reads_each_video_of_a_comparison_and_shows_the_readin
         asked = _client(base).chat.completions.create(model="tacreasoner", messages=_ask(COMPARE, *two),
                                                       max_tokens=8)
         assert asked.model_extra["timings"]["steps"] == 1 and asked.model_extra["timings"]["prepare_s"] > 0
-        assert asked.model_extra["asked_as"].endswith("Which object is harder?")
+        assert asked.model_extra["asked_as"].endswith("Which of the two objects feels harder?")
 
 
 @pytest.mark.parametrize(("setting", "value"), [("decode_timeout_s", 0.0), ("max_request_bytes", 0),

@@ -327,19 +327,17 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
     views = _question_views(todo, answers) if answers != "direct" else {}
     reasked = _reasked_questions(views, answers)
     stepwise = [item for item in todo if item.id in views and item.id not in reasked]
-    direct = [item for item in todo if item.id not in views or item.id in reasked]
+    direct = [item for item in todo if item.id not in views]
+    again = [item for item in todo if item.id in reasked]
     # similar lengths together: less padding in each generate call
     direct.sort(key=lambda item: (len(item.videos), len(item.question)))
     done_count = len(items) - len(todo)
     with out.open("a", encoding="utf-8") as f:
         for start, answered in zip(range(0, len(direct), batch_size),
-                                   replies([(reasked.get(item.id, item.question), keys[item.id])
-                                            for item in direct]), strict=True):
+                                   replies([(item.question, keys[item.id]) for item in direct]), strict=True):
             chunk = direct[start:start + batch_size]
             for item, (text, was_cut) in zip(chunk, answered, strict=True):
                 record = {"id": item.id, "prediction": text, "task": item.task, "cut": was_cut, **tag}
-                if item.id in reasked:  # what the model was asked instead of the item's words
-                    record["asked_as"] = reasked[item.id]
                 if touch == "shuffled":  # which clips it was shown, for checking the control
                     record["touch_videos"] = [_key_name(k, root) for k in keys[item.id]]
                 f.write(json.dumps(record) + "\n")
@@ -347,6 +345,9 @@ def predict_items(model: Any, processor: Any, items: Sequence[QAItem], video_roo
             done_count += len(chunk)
             if progress is not None:
                 progress(done_count, len(items))
+        if again:
+            done_count += _answer_again(again, reasked, keys, replies, tag, f,
+                                        lambda n: progress(done_count + n, len(items)) if progress else None)
         if stepwise:
             _answer_stepwise([views[item.id] for item in stepwise], keys, out, replies, tag, f, root, touch, answers,
                              lambda n: progress(done_count + n, len(items)) if progress is not None else None)
@@ -365,15 +366,41 @@ def _question_views(items: Sequence[QAItem], answers: str) -> dict[str, QAItem]:
     return {item_id: view for item_id, view in views.items() if view is not None}
 
 
-def _reasked_questions(views: Mapping[str, QAItem], answers: str) -> dict[str, str]:
-    """id → the benchmark wording an item in a person's words is asked again in, one pass
+def _reasked_questions(views: Mapping[str, QAItem], answers: str) -> dict[str, tuple[str, ...]]:
+    """id → the benchmark wordings an item in a person's words is asked again in, one pass each
     (``stepwise.REASKING_MODES``); the other views are read stepwise."""
-    from tacreasoner.evaluate.stepwise import REASKING_MODES, reasked_question
+    from tacreasoner.evaluate.stepwise import REASKING_MODES, reasked_questions
 
     if answers not in REASKING_MODES:
         return {}
-    asked = {item_id: reasked_question(view) for item_id, view in views.items()}
-    return {item_id: question for item_id, question in asked.items() if question is not None}
+    asked = {item_id: reasked_questions(view) for item_id, view in views.items()}
+    return {item_id: questions for item_id, questions in asked.items() if questions}
+
+
+def _answer_again(items: Sequence[QAItem], reasked: Mapping[str, Sequence[str]], keys: Mapping[str, Any],
+                  replies: Callable[..., Iterator[list[tuple[str, bool]]]], tag: Mapping[str, Any], f: Any,
+                  progress: Callable[[int], None] | None) -> int:
+    """Answer each item in the benchmark wordings it is asked again in (one pass each, its own videos) and write
+    one record per item: the reply whose answer is the majority's (``stepwise.pick_reasked``), with the wording it
+    answered under ``asked_as`` (and every wording's reply under ``asked_again`` where there are several)."""
+    from tacreasoner.evaluate.stepwise import pick_reasked
+
+    prompts = [(item, question) for item in items for question in reasked[item.id]]
+    got = [reply for chunk in replies([(q, keys[item.id]) for item, q in prompts]) for reply in chunk]
+    by_item: dict[str, list[tuple[str, str, bool]]] = {}
+    for (item, question), (text, was_cut) in zip(prompts, got, strict=True):
+        by_item.setdefault(item.id, []).append((question, text, was_cut))
+    for n, item in enumerate(items, 1):
+        answers = by_item[item.id]
+        question, text, was_cut = answers[pick_reasked([t for _, t, _ in answers])]
+        record = {"id": item.id, "prediction": text, "task": item.task, "cut": was_cut, **tag, "asked_as": question}
+        if len(answers) > 1:
+            record["asked_again"] = [{"question": q, "prediction": t} for q, t, _ in answers]
+        f.write(json.dumps(record) + "\n")
+        if progress is not None:
+            progress(n)
+    f.flush()
+    return len(items)
 
 
 def _replies(base: Any, processor: Any, prompts: Sequence[tuple[str, Sequence[VideoKey]]], bank: Any,

@@ -59,8 +59,8 @@ from tacreasoner.tasks.templating import load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
 
 __all__ = ["REASKED_TASKS", "REASKING_MODES", "SINGLE_CLIP_MODES", "STEP_TOKENS", "TRAINED_ONE_PASS_MODES",
-           "VOTE_TEMPLATES", "VOTING_MODES", "Step", "Stepwise", "conclude", "free_question_view", "question_view",
-           "reading_templates", "reasked_question", "steps_for"]
+           "VOTE_TEMPLATES", "VOTING_MODES", "Step", "Stepwise", "conclude", "free_question_view", "pick_reasked",
+           "question_view", "reading_templates", "reasked_questions", "steps_for"]
 
 STEP_TOKENS = 96
 """Reply budget of one sub-question: a reading is a level word (~5 tokens), three named objects' levels ~40, a
@@ -85,13 +85,16 @@ compares well in its own words (the DynTAC-Sim quickstart's) but not in a person
 2026-11-29_person_words)."""
 REASKING_MODES: tuple[str, ...] = ("auto",)
 """Answering modes that ask a person's comparison (SFD, SOI, PC) or real-or-fake question (RFOR) again in the
-benchmark's own wording, in one pass, once its words say what it asks (:func:`reasked_question`): the DynTAC-Sim
+benchmark's own wording, in one pass, once its words say what it asks (:func:`reasked_questions`): the DynTAC-Sim
 quickstart's one pass compares better in its own words than its readings do (SFD 80.9 against 68.9, val) and answers
 real or fake in no other (experiments/2026-11-29_reask)."""
 REASKED_TASKS = ("SFD", "SOI", "PC", "RFOR")
-_REASK_TEMPLATE = {"SFD which": "sfd_which_plain", "SFD yesno": "sfd_yesno_plain", "SOI": "soi_plain",
-                   "PC": "pc_compared", "RFOR": "rfor_plain"}
-"""The benchmark wording a question is asked again in: the plainest of its kind."""
+_REASK_TEMPLATES: dict[str, tuple[str, ...]] = {
+    "SFD which": ("sfd_which_touch",), "SFD yesno": ("sfd_yesno_touch",),
+    "SOI": ("soi_plain", "soi_labelled", "soi_touch"), "PC": ("pc_compared",), "RFOR": ("rfor_touch",)}
+"""The benchmark wordings a question is asked again in (several: the majority answer, :func:`pick_reasked`), chosen
+on val in the benchmark's own wordings, every template on the same items (benchmarks/results/reask_wordings_val.md;
+PC, which DynTAC-Sim does not ask, its plainest)."""
 _OPTION = re.compile(r"\(([A-C])\)[^:\n(]*:\s*([^.\n(]*)")
 """``(A) lemon: soft, …`` in a reply listing all three named objects on one line: a span stops at the next ``(``."""
 
@@ -161,7 +164,7 @@ def question_view(item: QAItem, single_clip: bool = False, trained_one_pass: boo
     the words do not say what is asked (the item is then answered in one pass). ``single_clip``: a question about
     one clip is answered from its reading too (its properties read from the words), else in one pass.
     ``trained_one_pass``: a question in a trained wording is answered in one pass (None). ``reask``: a one-clip
-    question asking whether a fruit is real is seen too (as ``RFOR``, to be asked again: :func:`reasked_question`)."""
+    question asking whether a fruit is real is seen too (as ``RFOR``, to be asked again: :func:`reasked_questions`)."""
     if trained_one_pass and trained_wording_of(item.question) is not None:
         return None
     if item.task.startswith("TFA") or item.task == "RFOR":
@@ -192,7 +195,7 @@ def free_question_view(question: str, videos: int, vocabulary: str, single_clip:
     "more, less or similar" over two videos (PC), a comparative over two (SFD) or a superlative over three (SOI);
     over one video with ``single_clip``, the properties it asks for (TFA). None when it is none of these (answered in
     one pass); with ``trained_one_pass`` also a question in a trained wording. ``reask``: a one-clip real-or-fake
-    question is seen as ``RFOR`` (:func:`reasked_question`)."""
+    question is seen as ``RFOR`` (:func:`reasked_questions`)."""
     if question.count(PLACEHOLDER) != videos or videos < 1:
         return None
     if trained_one_pass and trained_wording_of(question) is not None:
@@ -226,12 +229,12 @@ def free_question_view(question: str, videos: int, vocabulary: str, single_clip:
                   vocabulary=vocabulary, options=options if task in ("OSC", "TSA") else [], meta=meta)
 
 
-def reasked_question(view: QAItem) -> str | None:
-    """A view's question in the benchmark's own wording (the plainest template of its kind, its slots from the view:
-    the property and direction a comparison asks, the fruit), for a one-pass answer; None for a task not asked again
-    (:data:`REASKED_TASKS`)."""
+def reasked_questions(view: QAItem) -> tuple[str, ...]:
+    """A view's question in the benchmark's own wordings (:data:`_REASK_TEMPLATES`, their slots from the view: the
+    property and direction a comparison asks, the fruit), each for a one-pass answer; none for a task not asked
+    again (:data:`REASKED_TASKS`)."""
     if view.task not in REASKED_TASKS:
-        return None
+        return ()
     slots: dict[str, str] = {}
     if view.task == "RFOR":
         kind, slots["fruit"] = "RFOR", str(view.gold["fruit"])
@@ -244,9 +247,33 @@ def reasked_question(view: QAItem) -> str | None:
             kind, slots["superlative"] = "SOI", getattr(attribute, view.gold["direction"])
         else:
             kind = "PC"
-    template_id = _REASK_TEMPLATE[kind]
-    template = next(t for ts in load_templates().values() for t in ts if t.id == template_id)
-    return template.render(**slots)
+    templates = {t.id: t for ts in load_templates().values() for t in ts}
+    return tuple(templates[t].render(**slots) for t in _REASK_TEMPLATES[kind])
+
+
+_ORDINAL_WORD = re.compile(r"\b(first|second|third)\b", re.IGNORECASE)
+
+
+def _answer_key(reply: str) -> str | None:
+    """What a reply answers, for counting votes: its ordinal (``the first object`` and ``first`` alike) or its
+    answer text, lower case; None when it gave no answer in the asked form."""
+    said = extract_answer(reply, "strict")
+    if said is None:
+        return None
+    ordinals = {m.lower() for m in _ORDINAL_WORD.findall(said)}
+    return ordinals.pop() if len(ordinals) == 1 else " ".join(said.lower().strip(" .!").split())
+
+
+def pick_reasked(replies: Sequence[str]) -> int:
+    """Which of the replies to a question asked again in several wordings to give: the first whose answer is the
+    most common (a tie goes to the first wording's answer, then the earliest)."""
+    keys = [_answer_key(r) for r in replies]
+    counts = {k: keys.count(k) for k in keys if k is not None}
+    if not counts:
+        return 0
+    top = max(counts.values())
+    winner = keys[0] if counts.get(keys[0]) == top else next(k for k in keys if counts.get(k) == top)
+    return keys.index(winner)
 
 
 def _attributes(item: QAItem) -> list[str]:

@@ -25,8 +25,9 @@ from tacreasoner.evaluate.stepwise import (
     TRAINED_ONE_PASS_MODES,
     conclude,
     free_question_view,
+    pick_reasked,
     reading_templates,
-    reasked_question,
+    reasked_questions,
     steps_for,
 )
 from tacreasoner.model.processing import PROCESSOR_CONFIG_NAME
@@ -118,11 +119,16 @@ class StepwiseAnswerer:
 
     def answer(self, engine: TactileEngine, view: QAItem, videos: Sequence[Any],
                timeout_s: float | None = None) -> Reply:
-        """The reply to a question's ``view``: asked again in the benchmark's words in one pass where this mode does
-        that (``REASKING_MODES``; the reply's ``asked_as`` names the wording), else read stepwise."""
-        question = reasked_question(view) if self.answers in REASKING_MODES else None
-        if question is None:
+        """The reply to a question's ``view``: asked again in the benchmark's words where this mode does that
+        (``REASKING_MODES``; one pass per wording, the majority's reply, its ``asked_as`` naming the wording), else
+        read stepwise."""
+        questions = reasked_questions(view) if self.answers in REASKING_MODES else ()
+        if not questions:
             return answer_view(engine, view, videos, reading_templates(self.answers), timeout_s)
-        reply = engine.complete(Prompt.ask(question, videos), Sampling(max_new_tokens=STEP_TOKENS),
-                                timeout_s=timeout_s)
-        return dataclasses.replace(reply, timings={**reply.timings, "steps": 1}, asked_as=question)
+        start = time.perf_counter()
+        sampling = Sampling(max_new_tokens=STEP_TOKENS)
+        replies = engine.complete_batch([Prompt.ask(q, videos) for q in questions], [sampling] * len(questions),
+                                        timeout_s=timeout_s)
+        chosen = pick_reasked([r.text for r in replies])
+        return dataclasses.replace(replies[chosen], asked_as=questions[chosen], timings={
+            **replies[chosen].timings, "steps": len(questions), "total_s": round(time.perf_counter() - start, 4)})
