@@ -32,6 +32,7 @@ import random
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 from tacreasoner.cot.compact import conclusion_step, describe
@@ -53,9 +54,9 @@ from tacreasoner.tasks.conclude import (
 )
 from tacreasoner.tasks.extract import extract_answer
 from tacreasoner.tasks.paraphrase import trained_wording_of
-from tacreasoner.tasks.schema import PLACEHOLDER, QAItem, VideoRef
+from tacreasoner.tasks.schema import ORDINALS, PLACEHOLDER, QAItem, VideoRef
 from tacreasoner.tasks.scoring import TSA_LETTERS
-from tacreasoner.tasks.templating import load_templates
+from tacreasoner.tasks.templating import Template, load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
 
 __all__ = ["REASKED_TASKS", "REASKING_MODES", "SINGLE_CLIP_MODES", "STEP_TOKENS", "TRAINED_ONE_PASS_MODES",
@@ -123,11 +124,8 @@ class Stepwise:
 
 
 def _one_clip_asked(question: str, vocabulary: str) -> tuple[str, dict[str, Any]] | None:
-    """What a question about one clip asks, as (task, view gold): the properties read from its words
-    (:func:`tacreasoner.tasks.conclude.asked_properties`); None when they are not read, or when it is asked in a
-    wording the model was trained on (one pass reads those as well: decision.md)."""
-    if trained_wording_of(question) is not None:
-        return None
+    """The properties a question about one clip names, as (task, view gold), read from its words
+    (:func:`tacreasoner.tasks.conclude.asked_properties`); None when they are not read."""
     found = asked_properties(question, vocabulary)
     if not found:
         return None
@@ -137,7 +135,8 @@ def _one_clip_asked(question: str, vocabulary: str) -> tuple[str, dict[str, Any]
 def _one_clip_view_asked(question: str, vocabulary: str, reask: bool) -> tuple[str, dict[str, Any]] | None:
     """What a question about one clip in untrained words asks, as (task, view gold): whether a fruit is real first
     (``RFOR`` with its fruit, :func:`tacreasoner.tasks.conclude.asked_fruit`; seen only with ``reask``, else left to
-    one pass: never read as a property), else the properties it names (:func:`_one_clip_asked`)."""
+    one pass: never read as a property), else the properties it names (:func:`_one_clip_asked`); None in a wording
+    the model was trained on (one pass reads those as well: experiments/2026-11-29_read_single_clip/decision.md)."""
     if trained_wording_of(question) is not None:
         return None
     properties = _one_clip_asked(question, vocabulary)
@@ -206,8 +205,7 @@ def free_question_view(question: str, videos: int, vocabulary: str, single_clip:
     if videos == 1:
         if single_clip and (asked_here := _one_clip_view_asked(question, vocabulary, reask)) is not None:
             task, gold = asked_here
-        elif single_clip and asked_fruit(question) is None and \
-                (thing := beyond_touch(question, vocabulary)) is not None:
+        elif single_clip and (thing := beyond_touch(question, vocabulary)) is not None:
             task, gold = "TFA-combined", {"attributes": [], "beyond_touch": thing}
     elif options and all(_ORDINAL_OPTION.match(o) for o in options):
         found = _SCENARIO.search(question.replace(PLACEHOLDER, " "))
@@ -247,11 +245,10 @@ def reasked_questions(view: QAItem) -> tuple[str, ...]:
             kind, slots["superlative"] = "SOI", getattr(attribute, view.gold["direction"])
         else:
             kind = "PC"
-    templates = {t.id: t for ts in load_templates().values() for t in ts}
-    return tuple(templates[t].render(**slots) for t in _REASK_TEMPLATES[kind])
+    return tuple(_template(t).render(**slots) for t in _REASK_TEMPLATES[kind])
 
 
-_ORDINAL_WORD = re.compile(r"\b(first|second|third)\b", re.IGNORECASE)
+_ORDINAL_WORD = re.compile(r"\b(" + "|".join(ORDINALS) + r")\b", re.IGNORECASE)
 
 
 def _answer_key(reply: str) -> str | None:
@@ -289,8 +286,14 @@ def _reading_key(attribute: str, key: VideoKey, template: str = READING_TEMPLATE
     return f"{kind}|{attribute}|{key[0]}|{key[1]}|{key[2]}"
 
 
+@lru_cache(maxsize=64)
+def _template(template_id: str) -> Template:
+    """A benchmark template by its id."""
+    return next(t for ts in load_templates().values() for t in ts if t.id == template_id)
+
+
 def _reading_question(item: QAItem, attribute: str, template_id: str = READING_TEMPLATE) -> str:
-    template = next(t for t in load_templates()["tfa"] if t.id == template_id)
+    template = _template(template_id)
     return template.render(attribute=attribute, choices=get_vocabulary(item.vocabulary)[attribute].choices)
 
 

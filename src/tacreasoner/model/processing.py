@@ -26,7 +26,7 @@ import numpy as np
 import torch
 from transformers import AutoTokenizer, BatchFeature, PreTrainedTokenizerBase
 
-from tacreasoner.jsonl import read_json_object
+from tacreasoner.jsonl import atomic_write_text, read_json_object
 from tacreasoner.model.encoder_config import DEFAULT_SENSOR_TYPES, TactileEncoderConfig
 from tacreasoner.model.tokenizer import IM_END, TACTILE_PAD
 from tacreasoner.model.video_processing import (
@@ -444,6 +444,4 @@ def record_answers(model_dir: str | os.PathLike[str], answers: str) -> None:
     path = Path(model_dir) / PROCESSOR_CONFIG_NAME
     data = read_json_object(path, "a processor config written by TacReasonerProcessor.save_pretrained")
     if data.get("answers") != answers:
-        tmp = path.with_suffix(".json.tmp")
-        tmp.write_text(json.dumps({**data, "answers": answers}, indent=2) + "\n", encoding="utf-8")
-        os.replace(tmp, path)
+        atomic_write_text(path, json.dumps({**data, "answers": answers}, indent=2) + "\n")

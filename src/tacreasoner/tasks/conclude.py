@@ -207,9 +207,10 @@ def asked_fruit(question: str, names_property: bool = False) -> str | None:
 
 def beyond_touch(question: str, vocabulary: str) -> str | None:
     """What a question asks that touch cannot tell (:data:`BEYOND_TOUCH`: "What colour is this?" → ``colour``), when
-    it asks for none of the properties (:func:`asked_properties`) and not whether the object is real; else None."""
+    it asks for none of the properties (:func:`asked_properties`) and not whether the object is real
+    (:func:`asked_fruit`); else None."""
     text = question.replace(PLACEHOLDER, " ")
-    if asked_properties(text, vocabulary) is not None or _REAL_OR_FAKE.search(text):
+    if asked_properties(text, vocabulary) is not None or _REAL_OR_FAKE.search(text) or asked_fruit(text) is not None:
         return None
     return next((thing for thing, words in BEYOND_TOUCH.items() if _names_a_stem(text, words)), None)
 
