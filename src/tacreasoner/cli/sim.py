@@ -22,7 +22,8 @@ def simulate(
     objects: Objects = 100,
     repeats: Repeats = 5,
     sensors: Annotated[str, typer.Option("--sensors", help="Comma-separated: mini, digit, tac3d; NAME@FPS; "
-                                                           "mini+markers; NAME+varied (each clip its own look).")
+                                                           "mini+markers; NAME+varied (each clip its own look), "
+                                                           "NAME+varied50 (half the clips).")
                        ] = "mini",
     seed: Seed = 0,
     workers: Workers = None,

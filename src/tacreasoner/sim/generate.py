@@ -21,7 +21,7 @@ from tacreasoner.sim.materials import Material, build_object_set, derive_labels
 from tacreasoner.sim.mechanics import ContactTrajectory, simulate_contact
 from tacreasoner.sim.protocol import ACTIONS, make_protocol
 from tacreasoner.sim.render import RenderScene, render_frames
-from tacreasoner.sim.sensors import SensorStyle, get_sensor, vary_look
+from tacreasoner.sim.sensors import SensorStyle, clip_look, get_sensor
 from tacreasoner.video_io import write_video
 
 GENERATOR_VERSION = "dyntac-sim-1"
@@ -63,7 +63,7 @@ def iter_clip_frames(material: Material, sensor: SensorStyle, action: str, seed:
     traj = simulate_trajectory(material, sensor, action, rng)
     max_shift = float(np.abs(traj.object_shift_mm).max()) + 1.0
     # A varied style draws the clip's look from its own stream: the contact and texture stay the plain style's.
-    look = vary_look(sensor, np.random.default_rng(np.random.SeedSequence([*seed, 1]))) if sensor.varied else sensor
+    look = clip_look(sensor, seed)
     scene = RenderScene.build(look, material, max_shift, rng)
 
     def frames() -> Iterator[np.ndarray]:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -36,8 +38,9 @@ class SensorStyle:
     noise_std: float
     spread_sigmas_mm: tuple[float, ...]
     spread_weights: tuple[float, ...]
-    varied: bool = False
-    """Each clip draws its own look (``vary_look``): lights, gel colour, gain, noise; the geometry stays."""
+    varied: float = 0.0
+    """The share of clips that draw their own look (``vary_look``: lights, gel colour, gain, noise; the geometry
+    stays); the rest keep the style's own look. 0: none, 1: every clip."""
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -96,7 +99,7 @@ PHYSICLEAR_CONTACT_GAIN = 0.33
 def get_sensor(spec: str) -> SensorStyle:
     """Look up a sensor by name; ``name@fps`` overrides the frame rate, ``+markers`` adds the 7×9 marker grid and
     ``mini+physiclear`` calibrates the contact signal to PhysiCLeAR's real clips, ``+varied`` gives every clip its
-    own look (options combine: a+b+c)."""
+    own look and ``+variedNN`` NN% of clips (the rest keep the style's look); options combine: a+b+c."""
     text = spec.strip().lower()
     name, _, fps_text = text.partition("@")
     base_name, *options = name.split("+")
@@ -107,15 +110,15 @@ def get_sensor(spec: str) -> SensorStyle:
     for option in options:
         if option == "markers" and style.markers is None:
             style = replace(style, name=f"{style.name}+markers", markers=(7, 9))
-        elif option == "varied" and not style.varied:
-            style = replace(style, name=f"{style.name}+varied", varied=True)
+        elif (share := _varied_share(option)) is not None and not style.varied:
+            style = replace(style, name=f"{style.name}+{option}", varied=share)
         elif option == "physiclear" and base_name == "mini" and "physiclear" not in style.name:
             style = replace(style, name=f"{style.name}+physiclear",
                             shading_gain=style.shading_gain * PHYSICLEAR_CONTACT_GAIN,
                             depth_darkening=style.depth_darkening * PHYSICLEAR_CONTACT_GAIN)
         else:
             raise ValueError(f"unknown sensor option {option!r} in {spec!r}; only 'mini+markers', "
-                             "'digit+markers', 'mini+physiclear' and NAME+varied")
+                             "'digit+markers', 'mini+physiclear', NAME+varied and NAME+variedNN (NN from 1 to 99)")
     if fps_text:
         try:
             fps = float(fps_text)
@@ -125,6 +128,26 @@ def get_sensor(spec: str) -> SensorStyle:
             raise ValueError(f"sensor {spec!r}: frame rate must be between 1 and 240 fps")
         style = replace(style, name=f"{style.name}@{fps:g}", fps=fps)
     return style
+
+
+def _varied_share(option: str) -> float | None:
+    """``varied`` → 1.0, ``varied50`` → 0.5; None for any other option (or a percentage outside 1–99)."""
+    match = re.fullmatch(r"varied(\d{1,2})?", option)
+    if match is None:
+        return None
+    percent = int(match.group(1) or 100)
+    return percent / 100 if 1 <= percent <= 100 else None
+
+
+def clip_look(style: SensorStyle, seed: Sequence[int]) -> SensorStyle:
+    """The look of the clip simulated from ``seed``: the style's own, or (for a share ``style.varied`` of clips)
+    one drawn by ``vary_look`` from the clip's look stream ``[*seed, 1]``. Whether a clip is varied is drawn from
+    its own stream ``[*seed, 2]``, so every-clip ``+varied`` clips look the same whatever the share option."""
+    if style.varied <= 0:
+        return style
+    if style.varied < 1 and np.random.default_rng(np.random.SeedSequence([*seed, 2])).random() >= style.varied:
+        return replace(style, varied=0.0)
+    return vary_look(style, np.random.default_rng(np.random.SeedSequence([*seed, 1])))
 
 
 def vary_look(style: SensorStyle, rng: np.random.Generator) -> SensorStyle:
@@ -143,7 +166,7 @@ def vary_look(style: SensorStyle, rng: np.random.Generator) -> SensorStyle:
                          tuple(float(light.rgb[c]) for c in order))  # type: ignore[arg-type]
                    for light in style.lights)
     return replace(
-        style, varied=False,
+        style, varied=0.0,
         background_rgb=tuple(float(v) for v in rng.uniform(20.0, 170.0, 3)),  # type: ignore[arg-type]
         centre_tint_rgb=tuple(float(v) for v in rng.uniform(0.0, 100.0, 3)),  # type: ignore[arg-type]
         gradient_rgb=tuple(float(v) for v in rng.uniform(-80.0, 50.0, 3)),  # type: ignore[arg-type]
