@@ -137,6 +137,16 @@ def test_single_clip_tasks_are_not_reasoned_over_objects() -> None:
     ("<tactile>\nWhat does this feel like?", "physiclear", ["hardness", "roughness", "bumpiness"]),
     ("Is this a real orange or a fake one? <tactile>", "physiclear", None),
     ("<tactile>\nIs this surface slippery?", "physiclear", None),  # friction is no PhysiCLeAR property
+    # fourth version: an analogy's things are examples, not the property asked
+    ("<tactile>\nIs it slippery like ice or sticky like rubber?", "vtv150k", ["friction"]),
+    ("Is it more like sandpaper or more like glass? <tactile>", "physiclear", ["roughness"]),  # only an analogy
+    ("I'd like to know if it is hard or rubbery <tactile>", "vtv150k", ["hardness", "elasticity"]),  # not one
+    # ... and a press described in an elasticity question is not a hardness question too
+    ("When you squash it and let go, does it spring right back? <tactile>", "vtv150k", ["elasticity"]),
+    ("Does the dent stay after you push in? <tactile>", "vtv150k", ["elasticity"]),
+    ("Does the dent stay after you push in? <tactile>", "physiclear", ["hardness"]),  # no elasticity there
+    ("Is it soft, and does it spring back? <tactile>", "vtv150k", ["hardness", "elasticity"]),
+    ("<tactile>\nIs anything poking out?", "vtv150k", ["protrusion"]),
 ])
 def test_a_one_clip_questions_properties_are_read_from_everyday_words(question: str, vocabulary: str,
                                                                      expected: list[str] | None) -> None:

@@ -105,10 +105,13 @@ PROPERTY_WORDS: dict[str, tuple[str, ...]] = {
     "bumpiness": ("bump", "lump", "ridge", "flat", "uneven", "knob", "nubb", "bobbl", "raised", "dimpl", "pimpl",
                   "stud",
                   "pebbl", "nodul", "wart", "hump", "ribbed", "corrugat", "wavy", "pitted", "pock", "bulg",
-                  "stick up", "sticks up", "poke up", "pokes up", "stand out", "stands out"),
+                  "stick up", "sticks up", "poke up", "pokes up", "stand out", "stands out",
+                  # fourth version (2026-11-29, after the fifth held-out set was read, before the sixth was):
+                  "sticking up", "poking up", "standing out"),
     "protrusion": ("protru", "stick out", "sticks out", "bump", "lump", "ridge", "flat", "uneven", "knob", "raised",
                    "stick up", "sticks up", "poke", "jut", "bulg", "stand out", "stands out", "spike", "nub", "hump",
-                   "pointy"),
+                   "pointy",
+                   "sticking out", "sticking up", "poking", "poked", "standing out"),
     "elasticity": ("elastic", "spring", "bounc", "rebound", "stretch", "resilien",
                    "snap back", "snaps back", "come back", "comes back", "recover", "rubber", "flexib", "jiggl",
                    "wobbl", "original shape", "its shape",
@@ -122,8 +125,30 @@ PROPERTY_WORDS: dict[str, tuple[str, ...]] = {
 before any evaluation wording was run through it (experiments/2026-11-29_read_single_clip/criteria.md); the second
 version's words (a thesaurus pass) before the third held-out set, written by someone who had not read this list, was
 read (experiments/2026-11-29_person_words); the third version's (elasticity's "back into shape" and kin) after that
-set was read and before the fourth was (experiments/2026-11-29_reask). Where a vocabulary has no roughness, its
+set was read and before the fourth was (experiments/2026-11-29_reask); the fourth version's (-ing forms of the
+protrusion phrases) and :func:`asked_properties`' handling of analogies and of springing back after the fifth set
+was read and before the sixth was (experiments/2026-11-29_lexicon_v4). Where a vocabulary has no roughness, its
 friction takes the roughness words (VTV-150K words friction as rough/smooth)."""
+_ANALOGY = re.compile(r"\b(?:like|the\s+way)\b(?!\s+(?:to|it|this|that|they|you|i)\b)[^,;:?.!\n]*?"
+                      r"(?=\s+or\b|\s+and\b|[,;:?.!\n]|$)", re.IGNORECASE)
+"""An analogy ("sticky like a rubber mat", "the way a ball would"): the things it names are examples, not the
+property asked ("rubber" is no elasticity question there)."""
+_SPRINGS_BACK = re.compile(r"\b(?:pops?|popping|springs?|springing|bounces?|bouncing|snaps?|snapping|comes?|coming|"
+                           r"go|goes|going|jumps?|jumping|returns?|returning)\s+(?:\w+\s+)?back\b(?!\s+and\b)|"
+                           r"\b(?:dent|dents|dip|mark|imprint)\s+(?:\w+\s+)?stays?\b|"
+                           r"\bstays?\s+(?:\w+\s+)?(?:dented|squashed|squished|pressed|deformed|flattened)\b|"
+                           r"\bkeeps?\s+(?:the|a)\s+(?:dent|mark|imprint)\b", re.IGNORECASE)
+"""Whether the shape comes back after a press ("does it pop right back out", "does the dent stay"): elasticity."""
+RECOVERY_WORDS: tuple[str, ...] = ("rebound", "recover", "resilien", "snap back", "snaps back", "come back",
+                                   "comes back", "original shape", "its shape", "into shape", "back to shape",
+                                   "back in shape", "pop back", "pops back", "spring back", "return to", "returns to",
+                                   "regain", "reform", "bounce back")
+"""Elasticity words that ask whether the shape comes back (as :data:`_SPRINGS_BACK`), not what it is made of."""
+PRESSING_WORDS: tuple[str, ...] = ("dent", "press in", "presses in", "push in", "pushes in", "sink in", "sinks in",
+                                   "deform", "squish", "squash", "compress", "squeez", "crush", "it give", "it gives",
+                                   "give when", "gives when", "give under", "gives under", "any give")
+"""Hardness words that also describe the press an elasticity question asks about ("if I push in and the dent
+stays…"): beside a springing-back phrase they do not make it a hardness question too."""
 _WHOLE_OBJECT = re.compile(r"\b(feels?\s+like|profile|properties|describe\s+(what|how|this|the)|how\s+does\s+(it|this)"
                            r"\s+(\w+\s+)?feel|what\s+do\s+you\s+feel)\b", re.IGNORECASE)
 
@@ -144,16 +169,28 @@ def asked_properties(question: str, vocabulary: str) -> list[str] | None:
     does this feel like?"); None when it asks about none of them ("Is this a real orange?")."""
     text = question.replace(PLACEHOLDER, " ")
     vocab = get_vocabulary(vocabulary)
+    # Analogies' things are examples ("slick like wet soap or sticky like a rubber mat?" asks friction), unless
+    # the analogy is all the question says ("Is it more like sandpaper or glass?").
+    found = _named_properties(_ANALOGY.sub(" ", text), vocab) or _named_properties(text, vocab)
+    if found:
+        return found
+    return list(vocab) if _WHOLE_OBJECT.search(text) else None
+
+
+def _named_properties(text: str, vocab: Mapping[str, Attribute]) -> list[str]:
+    """The properties of ``vocab`` whose words ``text`` uses, in vocabulary order (see :func:`asked_properties`)."""
+    springs_back = "elasticity" in vocab and (_SPRINGS_BACK.search(text) is not None
+                                              or _names_a_stem(text, RECOVERY_WORDS))
     found = []
     for attribute in vocab:
         words = (*PROPERTY_WORDS.get(attribute, ()), attribute)
         if attribute == "friction" and "roughness" not in vocab:
             words += PROPERTY_WORDS["roughness"]
-        if _names_a_stem(text, words):
+        if springs_back and attribute == "hardness":  # the press is part of the elasticity question
+            words = tuple(w for w in words if w not in PRESSING_WORDS)
+        if _names_a_stem(text, words) or (springs_back and attribute == "elasticity"):
             found.append(attribute)
-    if found:
-        return found
-    return list(vocab) if _WHOLE_OBJECT.search(text) else None
+    return found
 
 
 BEYOND_TOUCH: dict[str, tuple[str, ...]] = {
