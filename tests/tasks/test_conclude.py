@@ -147,6 +147,11 @@ def test_single_clip_tasks_are_not_reasoned_over_objects() -> None:
     ("Does the dent stay after you push in? <tactile>", "physiclear", ["hardness"]),  # no elasticity there
     ("Is it soft, and does it spring back? <tactile>", "vtv150k", ["hardness", "elasticity"]),
     ("<tactile>\nIs anything poking out?", "vtv150k", ["protrusion"]),
+    # fifth version: a gripper is the robot's hand; what the robot did counts only when nothing else is asked
+    ("Will the gripper have trouble with it, is it hard? <tactile>", "vtv150k", ["hardness"]),
+    ("The sensor slid along it: <tactile> Is it bumpy?", "physiclear", ["bumpiness"]),
+    ("The sensor slid along it: <tactile> How easily?", "vtv150k", ["friction"]),
+    ("We sell cushions. Is this one firm? <tactile>", "vtv150k", ["hardness"]),
 ])
 def test_a_one_clip_questions_properties_are_read_from_everyday_words(question: str, vocabulary: str,
                                                                      expected: list[str] | None) -> None:

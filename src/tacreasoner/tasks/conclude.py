@@ -97,8 +97,9 @@ PROPERTY_WORDS: dict[str, tuple[str, ...]] = {
                  "compress", "squeez", "pliab", "mushy", "solid", "tough", "deform",
                  # second version (2026-11-29, a thesaurus pass before the third held-out set was read):
                  "dent", "it give", "it gives", "give when", "gives when", "give under", "gives under", "any give",
-                 "press in", "presses in", "push in", "pushes in", "sink in", "sinks in", "cave", "cushion", "plush",
-                 "squidg", "malleab", "crush", "dense", "unyield", "flimsy", "sturdy", "doughy", "pillow"),
+                 "press in", "presses in", "push in", "pushes in", "sink in", "sinks in", "cave", "cushiony",
+                 "cushy", "plush", "squidg", "malleab", "crush", "dense", "unyield", "flimsy", "sturdy", "doughy",
+                 "pillow"),
     "roughness": ("rough", "smooth", "coarse", "grit", "grain", "textur", "sandpaper", "scratchy", "abrasiv",
                   "polish", "silk",
                   "rasp", "sandy", "scratch", "scrap", "prickl", "sleek", "gloss", "velvet", "satin", "fuzz", "harsh"),
@@ -127,7 +128,9 @@ version's words (a thesaurus pass) before the third held-out set, written by som
 read (experiments/2026-11-29_person_words); the third version's (elasticity's "back into shape" and kin) after that
 set was read and before the fourth was (experiments/2026-11-29_reask); the fourth version's (-ing forms of the
 protrusion phrases) and :func:`asked_properties`' handling of analogies and of springing back after the fifth set
-was read and before the sixth was (experiments/2026-11-29_lexicon_v4). Where a vocabulary has no roughness, its
+was read and before the sixth was (experiments/2026-11-29_lexicon_v4); the fifth version's (a gripper is no grip, a
+cushion no cushiony feel, the robot's action words count only alone) after the sixth set was read and before the
+seventh was (the same experiment's addendum). Where a vocabulary has no roughness, its
 friction takes the roughness words (VTV-150K words friction as rough/smooth)."""
 _ANALOGY = re.compile(r"\b(?:like|the\s+way)\b(?!\s+(?:to|it|this|that|they|you|i)\b)[^,;:?.!\n]*?"
                       r"(?=\s+or\b|\s+and\b|[,;:?.!\n]|$)", re.IGNORECASE)
@@ -149,6 +152,11 @@ PRESSING_WORDS: tuple[str, ...] = ("dent", "press in", "presses in", "push in", 
                                    "give when", "gives when", "give under", "gives under", "any give")
 """Hardness words that also describe the press an elasticity question asks about ("if I push in and the dent
 stays…"): beside a springing-back phrase they do not make it a hardness question too."""
+ACTION_WORDS: tuple[str, ...] = ("slid", "press in", "presses in", "push in", "pushes in")
+"""Words for what the robot did ("the sensor slid along it", "pushed in"): they name a property only when the
+question names no other (fifth version)."""
+NOT_PROPERTY_WORDS = re.compile(r"\b(grippers?|sliders?)\b", re.IGNORECASE)
+"""Words that start like a property word but name a thing (the robot's gripper): not read as the property."""
 _WHOLE_OBJECT = re.compile(r"\b(feels?\s+like|profile|properties|describe\s+(what|how|this|the)|how\s+does\s+(it|this)"
                            r"\s+(\w+\s+)?feel|what\s+do\s+you\s+feel)\b", re.IGNORECASE)
 
@@ -167,7 +175,7 @@ def asked_properties(question: str, vocabulary: str) -> list[str] | None:
     """The properties a question about one clip asks for, read from its words (:data:`PROPERTY_WORDS`), in
     vocabulary order: the ones it names, or every one for a question about how the object feels as a whole ("What
     does this feel like?"); None when it asks about none of them ("Is this a real orange?")."""
-    text = question.replace(PLACEHOLDER, " ")
+    text = NOT_PROPERTY_WORDS.sub(" ", question.replace(PLACEHOLDER, " "))
     vocab = get_vocabulary(vocabulary)
     # Analogies' things are examples ("slick like wet soap or sticky like a rubber mat?" asks friction), unless
     # the analogy is all the question says ("Is it more like sandpaper or glass?").
@@ -181,16 +189,19 @@ def _named_properties(text: str, vocab: Mapping[str, Attribute]) -> list[str]:
     """The properties of ``vocab`` whose words ``text`` uses, in vocabulary order (see :func:`asked_properties`)."""
     springs_back = "elasticity" in vocab and (_SPRINGS_BACK.search(text) is not None
                                               or _names_a_stem(text, RECOVERY_WORDS))
-    found = []
+    found, by_action = [], []
     for attribute in vocab:
         words = (*PROPERTY_WORDS.get(attribute, ()), attribute)
         if attribute == "friction" and "roughness" not in vocab:
             words += PROPERTY_WORDS["roughness"]
         if springs_back and attribute == "hardness":  # the press is part of the elasticity question
             words = tuple(w for w in words if w not in PRESSING_WORDS)
-        if _names_a_stem(text, words) or (springs_back and attribute == "elasticity"):
+        if _names_a_stem(text, tuple(w for w in words if w not in ACTION_WORDS)) or \
+                (springs_back and attribute == "elasticity"):
             found.append(attribute)
-    return found
+        elif _names_a_stem(text, words):
+            by_action.append(attribute)
+    return found or by_action
 
 
 BEYOND_TOUCH: dict[str, tuple[str, ...]] = {
