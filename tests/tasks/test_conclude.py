@@ -152,9 +152,27 @@ def test_single_clip_tasks_are_not_reasoned_over_objects() -> None:
     ("The sensor slid along it: <tactile> Is it bumpy?", "physiclear", ["bumpiness"]),
     ("The sensor slid along it: <tactile> How easily?", "vtv150k", ["friction"]),
     ("We sell cushions. Is this one firm? <tactile>", "vtv150k", ["hardness"]),
+    # sixth version: poking something is no protrusion, something poking out is; resisting a press is hardness
+    ("If I poke it, does it spring back or keep my fingerprint? <tactile>", "vtv150k", ["elasticity"]),
+    ("<tactile>\nIs there a stem poking out?", "vtv150k", ["protrusion"]),
+    ("Does it give way when pressed, or resist pressure? <tactile>", "physiclear", ["hardness"]),
 ])
 def test_a_one_clip_questions_properties_are_read_from_everyday_words(question: str, vocabulary: str,
                                                                      expected: list[str] | None) -> None:
     from tacreasoner.tasks.conclude import asked_properties
 
     assert asked_properties(question, vocabulary) == expected
+
+
+
+@pytest.mark.parametrize(("question", "kind"), [
+    ("Which one is harder? <tactile> <tactile>", "which"),
+    ("Pick the harder one: <tactile> <tactile>", "which"),
+    ("Is the first harder than the second? <tactile> <tactile>", "yesno"),
+    # a "pick" or "which" in the context does not turn a question that asks for yes or no into a which-question
+    ("I must pick a sample. <tactile> <tactile> Is the first harder than the second? Yes or no.", "yesno"),
+])
+def test_a_comparisons_kind_is_read_from_its_words(question: str, kind: str) -> None:
+    from tacreasoner.tasks.conclude import asked
+
+    assert asked("SFD", question, "vtv150k") == {"attribute": "hardness", "direction": "more", "kind": kind}

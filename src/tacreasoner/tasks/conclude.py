@@ -88,12 +88,17 @@ def asked(task: str, question: str, vocabulary: str) -> dict[str, Any] | None:
     attribute, direction = found_pairs.pop()
     out: dict[str, Any] = {"attribute": attribute, "direction": direction}
     if task == "SFD":
-        out["kind"] = "which" if re.search(r"\b(which|pick)\b", text, re.IGNORECASE) else "yesno"
+        # "yes or no" said outright wins over a "which"/"pick" in the context (sixth version)
+        says_yes_no = re.search(r"\byes\s*(?:or|/)\s*no\b", text, re.IGNORECASE) is not None
+        out["kind"] = "which" if not says_yes_no and re.search(r"\b(which|pick)\b", text, re.IGNORECASE) else "yesno"
     return out
 
 
 PROPERTY_WORDS: dict[str, tuple[str, ...]] = {
     "hardness": ("hard", "soft", "firm", "stiff", "rigid", "squish", "squash", "spongy", "yield", "give way",
+                 # sixth version (after the seventh held-out set was read): inflections and resisting a press
+                 "gives way", "giving way", "gave way", "resist being", "resists being", "resisted being",
+                 "resist pressure", "resists pressure", "resist press", "resists press",
                  "compress", "squeez", "pliab", "mushy", "solid", "tough", "deform",
                  # second version (2026-11-29, a thesaurus pass before the third held-out set was read):
                  "dent", "it give", "it gives", "give when", "gives when", "give under", "gives under", "any give",
@@ -110,9 +115,12 @@ PROPERTY_WORDS: dict[str, tuple[str, ...]] = {
                   # fourth version (2026-11-29, after the fifth held-out set was read, before the sixth was):
                   "sticking up", "poking up", "standing out"),
     "protrusion": ("protru", "stick out", "sticks out", "bump", "lump", "ridge", "flat", "uneven", "knob", "raised",
-                   "stick up", "sticks up", "poke", "jut", "bulg", "stand out", "stands out", "spike", "nub", "hump",
+                   "stick up", "sticks up", "jut", "bulg", "stand out", "stands out", "spike", "nub", "hump",
                    "pointy",
-                   "sticking out", "sticking up", "poking", "poked", "standing out"),
+                   "sticking out", "sticking up", "standing out",
+                   # sixth version: poking something is no protrusion; something poking out is
+                   "poke out", "pokes out", "poked out", "poke up", "pokes up", "poking out", "poking up",
+                   "poking through", "pokes through"),
     "elasticity": ("elastic", "spring", "bounc", "rebound", "stretch", "resilien",
                    "snap back", "snaps back", "come back", "comes back", "recover", "rubber", "flexib", "jiggl",
                    "wobbl", "original shape", "its shape",
@@ -130,7 +138,9 @@ set was read and before the fourth was (experiments/2026-11-29_reask); the fourt
 protrusion phrases) and :func:`asked_properties`' handling of analogies and of springing back after the fifth set
 was read and before the sixth was (experiments/2026-11-29_lexicon_v4); the fifth version's (a gripper is no grip, a
 cushion no cushiony feel, the robot's action words count only alone) after the sixth set was read and before the
-seventh was (the same experiment's addendum). Where a vocabulary has no roughness, its
+seventh was (the same experiment's addendum); the sixth version's (poking is no protrusion, something poking out is;
+keeping a fingerprint; resisting a press) after the seventh set was read, to be measured on the eighth. Where a
+vocabulary has no roughness, its
 friction takes the roughness words (VTV-150K words friction as rough/smooth)."""
 _ANALOGY = re.compile(r"\b(?:like|the\s+way)\b(?!\s+(?:to|it|this|that|they|you|i)\b)[^,;:?.!\n]*?"
                       r"(?=\s+or\b|\s+and\b|[,;:?.!\n]|$)", re.IGNORECASE)
@@ -140,7 +150,8 @@ _SPRINGS_BACK = re.compile(r"\b(?:pops?|popping|springs?|springing|bounces?|boun
                            r"go|goes|going|jumps?|jumping|returns?|returning)\s+(?:\w+\s+)?back\b(?!\s+and\b)|"
                            r"\b(?:dent|dents|dip|mark|imprint)\s+(?:\w+\s+)?stays?\b|"
                            r"\bstays?\s+(?:\w+\s+)?(?:dented|squashed|squished|pressed|deformed|flattened)\b|"
-                           r"\bkeeps?\s+(?:the|a)\s+(?:dent|mark|imprint)\b", re.IGNORECASE)
+                           r"\bkeeps?\s+(?:the|a|my|your|its|an)\s+(?:\w+\s+)?(?:dent|mark|imprint|fingerprint|"
+                           r"print|impression)\b", re.IGNORECASE)
 """Whether the shape comes back after a press ("does it pop right back out", "does the dent stay"): elasticity."""
 RECOVERY_WORDS: tuple[str, ...] = ("rebound", "recover", "resilien", "snap back", "snaps back", "come back",
                                    "comes back", "original shape", "its shape", "into shape", "back to shape",
