@@ -164,7 +164,6 @@ def test_a_one_clip_questions_properties_are_read_from_everyday_words(question: 
     assert asked_properties(question, vocabulary) == expected
 
 
-
 @pytest.mark.parametrize(("question", "kind"), [
     ("Which one is harder? <tactile> <tactile>", "which"),
     ("Pick the harder one: <tactile> <tactile>", "which"),

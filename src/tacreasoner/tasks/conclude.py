@@ -96,15 +96,15 @@ def asked(task: str, question: str, vocabulary: str) -> dict[str, Any] | None:
 
 PROPERTY_WORDS: dict[str, tuple[str, ...]] = {
     "hardness": ("hard", "soft", "firm", "stiff", "rigid", "squish", "squash", "spongy", "yield", "give way",
-                 # sixth version (after the seventh held-out set was read): inflections and resisting a press
-                 "gives way", "giving way", "gave way", "resist being", "resists being", "resisted being",
-                 "resist pressure", "resists pressure", "resist press", "resists press",
                  "compress", "squeez", "pliab", "mushy", "solid", "tough", "deform",
                  # second version (2026-11-29, a thesaurus pass before the third held-out set was read):
                  "dent", "it give", "it gives", "give when", "gives when", "give under", "gives under", "any give",
                  "press in", "presses in", "push in", "pushes in", "sink in", "sinks in", "cave", "cushiony",
                  "cushy", "plush", "squidg", "malleab", "crush", "dense", "unyield", "flimsy", "sturdy", "doughy",
-                 "pillow"),
+                 "pillow",
+                 # sixth version (after the seventh held-out set was read): inflections and resisting a press
+                 "gives way", "giving way", "gave way", "resist being", "resists being", "resisted being",
+                 "resist pressure", "resists pressure", "resist press", "resists press"),
     "roughness": ("rough", "smooth", "coarse", "grit", "grain", "textur", "sandpaper", "scratchy", "abrasiv",
                   "polish", "silk",
                   "rasp", "sandy", "scratch", "scrap", "prickl", "sleek", "gloss", "velvet", "satin", "fuzz", "harsh"),
@@ -139,9 +139,8 @@ protrusion phrases) and :func:`asked_properties`' handling of analogies and of s
 was read and before the sixth was (experiments/2026-11-29_lexicon_v4); the fifth version's (a gripper is no grip, a
 cushion no cushiony feel, the robot's action words count only alone) after the sixth set was read and before the
 seventh was (the same experiment's addendum); the sixth version's (poking is no protrusion, something poking out is;
-keeping a fingerprint; resisting a press) after the seventh set was read, to be measured on the eighth. Where a
-vocabulary has no roughness, its
-friction takes the roughness words (VTV-150K words friction as rough/smooth)."""
+keeping a fingerprint; resisting a press) after the seventh set was read, measured on the eighth. Where a
+vocabulary has no roughness, its friction takes the roughness words (VTV-150K words friction as rough/smooth)."""
 _ANALOGY = re.compile(r"\b(?:like|the\s+way)\b(?!\s+(?:to|it|this|that|they|you|i)\b)[^,;:?.!\n]*?"
                       r"(?=\s+or\b|\s+and\b|[,;:?.!\n]|$)", re.IGNORECASE)
 """An analogy ("sticky like a rubber mat", "the way a ball would"): the things it names are examples, not the
