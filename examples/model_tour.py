@@ -29,9 +29,15 @@ def main() -> None:
     args = ap.parse_args()
     torch.manual_seed(0)
 
-    # 1. Two simulated clips: the first two catalogue objects (a real and a fake fruit), Mini-style sensor.
-    sim_dir = Path(tempfile.mkdtemp(prefix="tour-sim-"))
-    generate_dataset(sim_dir, n_objects=2, repeats=1, sensors=["mini"], seed=0, workers=1)
+    # 1. Two simulated clips: the first two catalogue objects (a real and a fake fruit), Mini-style sensor. Their
+    #    folder is removed at the end (clips read their frames from it).
+    with tempfile.TemporaryDirectory(prefix="tour-sim-") as sim_dir:
+        generate_dataset(Path(sim_dir), n_objects=2, repeats=1, sensors=["mini"], seed=0, workers=1)
+        tour(Path(sim_dir), args.out)
+
+
+def tour(sim_dir: Path, out: Path | None) -> None:
+    """Steps 1–4 on the clips simulated in ``sim_dir``; the model is saved to ``out`` (default: a temporary folder)."""
     clips = list(read_sim_dataset(sim_dir))
     print("clips:", [(c.object_name, c.sensor, c.n_frames) for c in clips])
 
@@ -56,7 +62,7 @@ def main() -> None:
     print("parsed:", reply.think, "|", reply.answer)
 
     # 4. Save model + processor together; load them back with the Auto classes.
-    out = args.out or Path(tempfile.mkdtemp(prefix="tour-model-"))
+    out = out or Path(tempfile.mkdtemp(prefix="tour-model-"))
     model.save_pretrained(out)
     processor.save_pretrained(out)
     again = AutoModelForCausalLM.from_pretrained(out).eval()

@@ -30,8 +30,10 @@ __all__ = ["HELDOUT_WORDINGS", "PARAPHRASE_DIR", "WORDINGS", "Paraphrase", "chec
            "load_paraphrases", "normalise", "reword", "reword_items", "trained_wording_of"]
 
 PARAPHRASE_DIR = Path(__file__).parent / "paraphrases"
-WORDINGS = ("train", "heldout", "heldout2", "heldout3", "heldout4", "heldout5", "heldout6", "heldout7", "heldout8")
-HELDOUT_WORDINGS = ("heldout", "heldout2", "heldout3", "heldout4", "heldout5", "heldout6", "heldout7", "heldout8")
+WORDINGS = ("train", "heldout", "heldout2", "heldout3", "heldout4", "heldout5", "heldout6", "heldout7", "heldout8",
+            "heldout9")
+HELDOUT_WORDINGS = ("heldout", "heldout2", "heldout3", "heldout4", "heldout5", "heldout6", "heldout7", "heldout8",
+                    "heldout9")
 """Held-out sets: never trained on. ``heldout2`` (2026-11-29) was written after the stepwise modes' property lexicon
 (``tasks.conclude.asked_properties``) and never run through it before it was measured; ``heldout3`` (later that day)
 was written by someone who had not read the lexicon, and read only after its second version was committed: the
@@ -43,7 +45,9 @@ was committed unread after ``heldout4`` was read, before the wording re-asked in
 committed unread before the lexicon's fourth version (two properties offered as alternatives) was written; that
 version is measured on it (experiments/2026-11-29_lexicon_v4); ``heldout7`` (the same way, six wordings per
 property) was committed unread after ``heldout6`` was read, before the lexicon's fifth version was measured on it;
-``heldout8`` (the same way) after ``heldout7`` was read and the sixth version committed, to measure that version."""
+``heldout8`` (the same way) after ``heldout7`` was read and the sixth version committed, to measure that version;
+``heldout9`` (the next session, the same way) after ``heldout8`` was read, to measure the sixth version again before
+any change (experiments/2026-11-29_lexicon_v6_again)."""
 FIELDS = frozenset({"id", "text", "attribute", "answer"})
 LETTER_TASKS = ("SFD", "SOI")
 """Tasks whose ``the first/second/third object`` answers a lettered wording turns into ``A``/``B``/``C``."""
