@@ -156,6 +156,10 @@ def test_single_clip_tasks_are_not_reasoned_over_objects() -> None:
     ("If I poke it, does it spring back or keep my fingerprint? <tactile>", "vtv150k", ["elasticity"]),
     ("<tactile>\nIs there a stem poking out?", "vtv150k", ["protrusion"]),
     ("Does it give way when pressed, or resist pressure? <tactile>", "physiclear", ["hardness"]),
+    # seventh version: a feature standing proud of the surface, or sitting flush
+    ("Does any part of it stand proud of the rest? <tactile>", "vtv150k", ["protrusion"]),
+    ("<tactile> Is the screw head sitting flush?", "vtv150k", ["protrusion"]),
+    ("<tactile> Is the screw head sitting flush?", "physiclear", ["bumpiness"]),
 ])
 def test_a_one_clip_questions_properties_are_read_from_everyday_words(question: str, vocabulary: str,
                                                                      expected: list[str] | None) -> None:

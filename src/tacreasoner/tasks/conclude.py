@@ -94,6 +94,9 @@ def asked(task: str, question: str, vocabulary: str) -> dict[str, Any] | None:
     return out
 
 
+STANDS_PROUD: tuple[str, ...] = ("stand proud", "stands proud", "standing proud", "stood proud", "sit proud",
+                                  "sits proud", "sitting proud", "proud of the", "flush")
+"""A machinist's and carpenter's words for a raised feature: it "stands proud of" the surface, or "sits flush"."""
 PROPERTY_WORDS: dict[str, tuple[str, ...]] = {
     "hardness": ("hard", "soft", "firm", "stiff", "rigid", "squish", "squash", "spongy", "yield", "give way",
                  "compress", "squeez", "pliab", "mushy", "solid", "tough", "deform",
@@ -113,14 +116,18 @@ PROPERTY_WORDS: dict[str, tuple[str, ...]] = {
                   "pebbl", "nodul", "wart", "hump", "ribbed", "corrugat", "wavy", "pitted", "pock", "bulg",
                   "stick up", "sticks up", "poke up", "pokes up", "stand out", "stands out",
                   # fourth version (2026-11-29, after the fifth held-out set was read, before the sixth was):
-                  "sticking up", "poking up", "standing out"),
+                  "sticking up", "poking up", "standing out",
+                  # seventh version: a feature standing proud of a surface, or sitting flush with it
+                  *STANDS_PROUD),
     "protrusion": ("protru", "stick out", "sticks out", "bump", "lump", "ridge", "flat", "uneven", "knob", "raised",
                    "stick up", "sticks up", "jut", "bulg", "stand out", "stands out", "spike", "nub", "hump",
                    "pointy",
                    "sticking out", "sticking up", "standing out",
                    # sixth version: poking something is no protrusion; something poking out is
                    "poke out", "pokes out", "poked out", "poke up", "pokes up", "poking out", "poking up",
-                   "poking through", "pokes through"),
+                   "poking through", "pokes through",
+                   # seventh version (after the ninth held-out set was read, as the eighth had: measured on the tenth)
+                   *STANDS_PROUD),
     "elasticity": ("elastic", "spring", "bounc", "rebound", "stretch", "resilien",
                    "snap back", "snaps back", "come back", "comes back", "recover", "rubber", "flexib", "jiggl",
                    "wobbl", "original shape", "its shape",
@@ -139,7 +146,9 @@ protrusion phrases) and :func:`asked_properties`' handling of analogies and of s
 was read and before the sixth was (experiments/2026-11-29_lexicon_v4); the fifth version's (a gripper is no grip, a
 cushion no cushiony feel, the robot's action words count only alone) after the sixth set was read and before the
 seventh was (the same experiment's addendum); the sixth version's (poking is no protrusion, something poking out is;
-keeping a fingerprint; resisting a press) after the seventh set was read, measured on the eighth. Where a
+keeping a fingerprint; resisting a press) after the seventh set was read, measured on the eighth; the seventh
+version's (standing proud, sitting flush: :data:`STANDS_PROUD`) after the eighth and ninth sets were read (each
+missed it once), measured on the tenth (experiments/2026-11-29_lexicon_v6_again). Where a
 vocabulary has no roughness, its friction takes the roughness words (VTV-150K words friction as rough/smooth)."""
 _ANALOGY = re.compile(r"\b(?:like|the\s+way)\b(?!\s+(?:to|it|this|that|they|you|i)\b)[^,;:?.!\n]*?"
                       r"(?=\s+or\b|\s+and\b|[,;:?.!\n]|$)", re.IGNORECASE)
