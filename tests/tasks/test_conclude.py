@@ -160,6 +160,10 @@ def test_single_clip_tasks_are_not_reasoned_over_objects() -> None:
     ("Does any part of it stand proud of the rest? <tactile>", "vtv150k", ["protrusion"]),
     ("<tactile> Is the screw head sitting flush?", "vtv150k", ["protrusion"]),
     ("<tactile> Is the screw head sitting flush?", "physiclear", ["bumpiness"]),
+    # eighth version: holding a dent or deforming for good is the elasticity question's other answer
+    ("Is it springy, or does it hold the dent? <tactile>", "vtv150k", ["elasticity"]),
+    ("<tactile> Rubbery and self-restoring, or does it deform permanently?", "vtv150k", ["elasticity"]),
+    ("<tactile> Does it deform easily?", "vtv150k", ["hardness"]),  # no "for good": a hardness question still
 ])
 def test_a_one_clip_questions_properties_are_read_from_everyday_words(question: str, vocabulary: str,
                                                                      expected: list[str] | None) -> None:

@@ -148,7 +148,9 @@ cushion no cushiony feel, the robot's action words count only alone) after the s
 seventh was (the same experiment's addendum); the sixth version's (poking is no protrusion, something poking out is;
 keeping a fingerprint; resisting a press) after the seventh set was read, measured on the eighth; the seventh
 version's (standing proud, sitting flush: :data:`STANDS_PROUD`) after the eighth and ninth sets were read (each
-missed it once), measured on the tenth (experiments/2026-11-29_lexicon_v6_again). Where a
+missed it once), measured on the tenth (experiments/2026-11-29_lexicon_v6_again); the eighth version's (holding a
+dent, deforming for good, self-restoring: :data:`_SPRINGS_BACK`, :data:`RECOVERY_WORDS`) after the tenth and eleventh
+were read, measured on the twelfth. Where a
 vocabulary has no roughness, its friction takes the roughness words (VTV-150K words friction as rough/smooth)."""
 _ANALOGY = re.compile(r"\b(?:like|the\s+way)\b(?!\s+(?:to|it|this|that|they|you|i)\b)[^,;:?.!\n]*?"
                       r"(?=\s+or\b|\s+and\b|[,;:?.!\n]|$)", re.IGNORECASE)
@@ -158,13 +160,18 @@ _SPRINGS_BACK = re.compile(r"\b(?:pops?|popping|springs?|springing|bounces?|boun
                            r"go|goes|going|jumps?|jumping|returns?|returning)\s+(?:\w+\s+)?back\b(?!\s+and\b)|"
                            r"\b(?:dent|dents|dip|mark|imprint)\s+(?:\w+\s+)?stays?\b|"
                            r"\bstays?\s+(?:\w+\s+)?(?:dented|squashed|squished|pressed|deformed|flattened)\b|"
-                           r"\bkeeps?\s+(?:the|a|my|your|its|an)\s+(?:\w+\s+)?(?:dent|mark|imprint|fingerprint|"
-                           r"print|impression)\b", re.IGNORECASE)
+                           r"\b(?:keeps?|keeping|holds?|holding|retains?|retaining)\s+(?:the|a|my|your|its|an)\s+"
+                           r"(?:\w+\s+)?(?:dent|mark|imprint|fingerprint|print|impression)\b|"
+                           # eighth version: staying deformed for good
+                           r"\b(?:deform(?:s|ed|ing)?|dent(?:s|ed)?|squash(?:es|ed)?)\s+(?:\w+\s+)?(?:permanently|for\s+good)\b|"
+                           r"\bpermanently\s+(?:deform|dent|squash|flatten)", re.IGNORECASE)
 """Whether the shape comes back after a press ("does it pop right back out", "does the dent stay"): elasticity."""
 RECOVERY_WORDS: tuple[str, ...] = ("rebound", "recover", "resilien", "snap back", "snaps back", "come back",
                                    "comes back", "original shape", "its shape", "into shape", "back to shape",
                                    "back in shape", "pop back", "pops back", "spring back", "return to", "returns to",
-                                   "regain", "reform", "bounce back")
+                                   "regain", "reform", "bounce back",
+                                   # eighth version
+                                   "self-restor", "self restor")
 """Elasticity words that ask whether the shape comes back (as :data:`_SPRINGS_BACK`), not what it is made of."""
 PRESSING_WORDS: tuple[str, ...] = ("dent", "press in", "presses in", "push in", "pushes in", "sink in", "sinks in",
                                    "deform", "squish", "squash", "compress", "squeez", "crush", "it give", "it gives",
