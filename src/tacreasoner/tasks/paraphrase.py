@@ -31,9 +31,9 @@ __all__ = ["HELDOUT_WORDINGS", "PARAPHRASE_DIR", "WORDINGS", "Paraphrase", "chec
 
 PARAPHRASE_DIR = Path(__file__).parent / "paraphrases"
 WORDINGS = ("train", "heldout", "heldout2", "heldout3", "heldout4", "heldout5", "heldout6", "heldout7", "heldout8",
-            "heldout9", "heldout10", "heldout11")
+            "heldout9", "heldout10", "heldout11", "heldout12")
 HELDOUT_WORDINGS = ("heldout", "heldout2", "heldout3", "heldout4", "heldout5", "heldout6", "heldout7", "heldout8",
-                    "heldout9", "heldout10", "heldout11")
+                    "heldout9", "heldout10", "heldout11", "heldout12")
 """Held-out sets: never trained on. ``heldout2`` (2026-11-29) was written after the stepwise modes' property lexicon
 (``tasks.conclude.asked_properties``) and never run through it before it was measured; ``heldout3`` (later that day)
 was written by someone who had not read the lexicon, and read only after its second version was committed: the
@@ -50,7 +50,8 @@ property) was committed unread after ``heldout6`` was read, before the lexicon's
 any change (experiments/2026-11-29_lexicon_v6_again); ``heldout10`` (the same way, trade jargon and more regional
 Englishes asked for) after ``heldout9`` was read and the seventh version committed, to measure that version;
 ``heldout11`` (the same session, ``heldout9``'s prompt word for word: the tenth's asked for trade jargon, which
-invites the idiom the seventh version added) to measure the seventh version again, unchanged."""
+invites the idiom the seventh version added) to measure the seventh version again, unchanged; ``heldout12`` (the
+same prompt) after the eighth version was committed, to measure it."""
 FIELDS = frozenset({"id", "text", "attribute", "answer"})
 LETTER_TASKS = ("SFD", "SOI")
 """Tasks whose ``the first/second/third object`` answers a lettered wording turns into ``A``/``B``/``C``."""
