@@ -164,6 +164,9 @@ def test_single_clip_tasks_are_not_reasoned_over_objects() -> None:
     ("Is it springy, or does it hold the dent? <tactile>", "vtv150k", ["elasticity"]),
     ("<tactile> Rubbery and self-restoring, or does it deform permanently?", "vtv150k", ["elasticity"]),
     ("<tactile> Does it deform easily?", "vtv150k", ["hardness"]),  # no "for good": a hardness question still
+    # "like in terms of" is no analogy: every property it names is asked
+    ("<tactile> What's it like in terms of hardness, roughness and bumpiness?", "physiclear",
+     ["hardness", "roughness", "bumpiness"]),
 ])
 def test_a_one_clip_questions_properties_are_read_from_everyday_words(question: str, vocabulary: str,
                                                                      expected: list[str] | None) -> None:

@@ -152,10 +152,12 @@ missed it once), measured on the tenth (experiments/2026-11-29_lexicon_v6_again)
 dent, deforming for good, self-restoring: :data:`_SPRINGS_BACK`, :data:`RECOVERY_WORDS`) after the tenth and eleventh
 were read, measured on the twelfth. Where a
 vocabulary has no roughness, its friction takes the roughness words (VTV-150K words friction as rough/smooth)."""
-_ANALOGY = re.compile(r"\b(?:like|the\s+way)\b(?!\s+(?:to|it|this|that|they|you|i)\b)[^,;:?.!\n]*?"
+_ANALOGY = re.compile(r"\b(?:like|the\s+way)\b(?!\s+(?:to|it|this|that|they|you|i|in\s+terms|with\s+respect)\b)"
+                      r"[^,;:?.!\n]*?"
                       r"(?=\s+or\b|\s+and\b|[,;:?.!\n]|$)", re.IGNORECASE)
 """An analogy ("sticky like a rubber mat", "the way a ball would"): the things it names are examples, not the
-property asked ("rubber" is no elasticity question there)."""
+property asked ("rubber" is no elasticity question there). "What's it like in terms of hardness, …" is no analogy
+(a fix after the twelfth held-out set was read: it had dropped the first property named)."""
 _SPRINGS_BACK = re.compile(r"\b(?:pops?|popping|springs?|springing|bounces?|bouncing|snaps?|snapping|comes?|coming|"
                            r"go|goes|going|jumps?|jumping|returns?|returning)\s+(?:\w+\s+)?back\b(?!\s+and\b)|"
                            r"\b(?:dent|dents|dip|mark|imprint)\s+(?:\w+\s+)?stays?\b|"
