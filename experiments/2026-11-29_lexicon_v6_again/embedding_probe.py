@@ -64,7 +64,8 @@ def main() -> None:
             gold = [wordings[i][1] for i in rows]
             lexicon = [asked_properties(wordings[i][0], vocabulary) for i in rows]
             hybrid = [lex[0] if lex and len(lex) == 1 else p for lex, p in zip(lexicon, picked, strict=True)]
-            row.append(f"{vocabulary} n={len(rows)}: centroid {np.mean([p == g for p, g in zip(picked, gold, strict=True)]):.2f}, "
+            right = np.mean([p == g for p, g in zip(picked, gold, strict=True)])
+            row.append(f"{vocabulary} n={len(rows)}: centroid {right:.2f}, "
                        f"word list {np.mean([lex == [g] for lex, g in zip(lexicon, gold, strict=True)]):.2f}, "
                        f"hybrid {np.mean([h == g for h, g in zip(hybrid, gold, strict=True)]):.2f}")
         print(f"heldout{n}: " + "; ".join(row))
