@@ -31,9 +31,9 @@ __all__ = ["HELDOUT_WORDINGS", "PARAPHRASE_DIR", "WORDINGS", "Paraphrase", "chec
 
 PARAPHRASE_DIR = Path(__file__).parent / "paraphrases"
 WORDINGS = ("train", "heldout", "heldout2", "heldout3", "heldout4", "heldout5", "heldout6", "heldout7", "heldout8",
-            "heldout9", "heldout10", "heldout11", "heldout12")
+            "heldout9", "heldout10", "heldout11", "heldout12", "heldout13", "heldout14")
 HELDOUT_WORDINGS = ("heldout", "heldout2", "heldout3", "heldout4", "heldout5", "heldout6", "heldout7", "heldout8",
-                    "heldout9", "heldout10", "heldout11", "heldout12")
+                    "heldout9", "heldout10", "heldout11", "heldout12", "heldout13", "heldout14")
 """Held-out sets: never trained on. ``heldout2`` (2026-11-29) was written after the stepwise modes' property lexicon
 (``tasks.conclude.asked_properties``) and never run through it before it was measured; ``heldout3`` (later that day)
 was written by someone who had not read the lexicon, and read only after its second version was committed: the
@@ -51,7 +51,10 @@ any change (experiments/2026-11-29_lexicon_v6_again); ``heldout10`` (the same wa
 Englishes asked for) after ``heldout9`` was read and the seventh version committed, to measure that version;
 ``heldout11`` (the same session, ``heldout9``'s prompt word for word: the tenth's asked for trade jargon, which
 invites the idiom the seventh version added) to measure the seventh version again, unchanged; ``heldout12`` (the
-same prompt) after the eighth version was committed, to measure it."""
+same prompt) after the eighth version was committed, to measure it; ``heldout13`` and ``heldout14`` (the next
+session, the same prompt, both committed unread together) before the hybrid reader (the word list, then a sentence
+embedding where it reads no property or several) was written: it is measured on the thirteenth, the fourteenth is
+kept for the next change (experiments/2026-11-29_hybrid_reader)."""
 FIELDS = frozenset({"id", "text", "attribute", "answer"})
 LETTER_TASKS = ("SFD", "SOI")
 """Tasks whose ``the first/second/third object`` answers a lettered wording turns into ``A``/``B``/``C``."""
