@@ -222,7 +222,8 @@ def test_an_unknown_answering_mode_is_refused_by_name(tmp_path: Path) -> None:
     assert answerer_id(tmp_path, tmp_path).endswith("]; bench=" + str(tmp_path.resolve()))
     assert answerer_id(tmp_path, tmp_path, answers="stepwise").endswith("; answers=stepwise")
     assert answerer_id(tmp_path, tmp_path, answers="stepwise-vote").endswith(
-        "; answers=stepwise-vote (one-clip questions in untrained words read)"), "answered before the reading: refused"
+        "; answers=stepwise-vote (one-clip questions in untrained words read) (a sentence embedding reads what the "
+        "property words do not)"), "answered before the reading or the embedding: refused"
 
 
 def test_a_tsa_reply_is_checked_against_the_needs_it_states(items: list[QAItem]) -> None:

@@ -186,3 +186,24 @@ def test_a_comparisons_kind_is_read_from_its_words(question: str, kind: str) -> 
     from tacreasoner.tasks.conclude import asked
 
     assert asked("SFD", question, "vtv150k") == {"attribute": "hardness", "direction": "more", "kind": kind}
+
+
+def test_a_fallback_reads_only_what_the_words_leave_unread() -> None:
+    from tacreasoner.tasks.conclude import asked_properties
+
+    asked_of: list[str] = []
+
+    def fallback(question: str, vocabulary: str) -> str | None:
+        asked_of.append(question)
+        return "roughness" if "ruff" in question else ("friction" if "zing" in question else None)
+
+    assert asked_properties("<tactile> smoth or ruff?", "physiclear", fallback) == ["roughness"]
+    assert asked_properties("<tactile> Is it hard?", "physiclear", fallback) == ["hardness"]
+    assert asked_properties("<tactile> how does it zing?", "physiclear", fallback) is None, \
+        "a property outside the vocabulary is no reading"
+    assert asked_properties("<tactile> anything?", "physiclear", fallback) is None
+    # a real-or-fake question or one touch cannot answer has a reply of its own: never sent to the fallback
+    for question in ("<tactile> Is this a ruff fake?", "<tactile> a ruff orange, or a plastic one?",
+                     "<tactile> What colour is this ruff thing?"):
+        assert asked_properties(question, "physiclear", fallback) is None
+    assert asked_of == ["<tactile> smoth or ruff?", "<tactile> how does it zing?", "<tactile> anything?"]

@@ -96,12 +96,14 @@ def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[
     dtype = resolve_dtype(dtype)
     cast = f"; dtype={dtype}" if dtype not in (None, "float32") else ""
     mode = f"; answers={check_answers(answers)}" if answers != "direct" else ""
-    from tacreasoner.evaluate.stepwise import REASKING_MODES, SINGLE_CLIP_MODES
+    from tacreasoner.evaluate.stepwise import EMBEDDING_MODES, REASKING_MODES, SINGLE_CLIP_MODES
 
     if answers in SINGLE_CLIP_MODES:  # since 2026-11-29: a folder answered before then is not resumed as if alike
         mode += " (one-clip questions in untrained words read)"
     if answers in REASKING_MODES:  # since 2026-11-29, likewise
         mode += " (a person's comparisons and real-or-fake questions asked again in the benchmark's words)"
+    if answers in EMBEDDING_MODES:  # since 2026-11-29 (the hybrid reader), likewise
+        mode += " (a sentence embedding reads what the property words do not)"
     return f"model={model} [{stamp}]; bench={Path(bench_dir).resolve()}{_bench_version(Path(bench_dir))}{cast}{mode}"
 
 
@@ -358,11 +360,18 @@ def _question_views(items: Sequence[QAItem], answers: str) -> dict[str, QAItem]:
     """id → the stepwise mode's view of each item it answers (the others, single-clip questions (unless the mode
     reads those in untrained words: ``SINGLE_CLIP_MODES``) and comparisons whose words do not say what they ask, are
     answered in one pass)."""
-    from tacreasoner.evaluate.stepwise import REASKING_MODES, SINGLE_CLIP_MODES, TRAINED_ONE_PASS_MODES, question_view
+    from tacreasoner.evaluate.stepwise import (
+        EMBEDDING_MODES,
+        REASKING_MODES,
+        SINGLE_CLIP_MODES,
+        TRAINED_ONE_PASS_MODES,
+        question_view,
+    )
 
     views = {item.id: question_view(item, single_clip=answers in SINGLE_CLIP_MODES,
                                     trained_one_pass=answers in TRAINED_ONE_PASS_MODES,
-                                    reask=answers in REASKING_MODES) for item in items}
+                                    reask=answers in REASKING_MODES, embedding=answers in EMBEDDING_MODES)
+             for item in items}
     return {item_id: view for item_id, view in views.items() if view is not None}
 
 

@@ -42,6 +42,7 @@ from tacreasoner.tasks.building import join_words
 from tacreasoner.tasks.conclude import (
     REASONED_TASKS,
     Levels,
+    PropertyFallback,
     asked,
     asked_fruit,
     asked_properties,
@@ -59,9 +60,9 @@ from tacreasoner.tasks.scoring import TSA_LETTERS
 from tacreasoner.tasks.templating import Template, load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
 
-__all__ = ["REASKED_TASKS", "REASKING_MODES", "SINGLE_CLIP_MODES", "STEP_TOKENS", "TRAINED_ONE_PASS_MODES",
-           "VOTE_TEMPLATES", "VOTING_MODES", "Step", "Stepwise", "conclude", "free_question_view", "pick_reasked",
-           "question_view", "reading_templates", "reasked_questions", "steps_for"]
+__all__ = ["EMBEDDING_MODES", "REASKED_TASKS", "REASKING_MODES", "SINGLE_CLIP_MODES", "STEP_TOKENS",
+           "TRAINED_ONE_PASS_MODES", "VOTE_TEMPLATES", "VOTING_MODES", "Step", "Stepwise", "conclude",
+           "free_question_view", "pick_reasked", "question_view", "reading_templates", "reasked_questions", "steps_for"]
 
 STEP_TOKENS = 96
 """Reply budget of one sub-question: a reading is a level word (~5 tokens), three named objects' levels ~40, a
@@ -89,6 +90,10 @@ REASKING_MODES: tuple[str, ...] = ("auto",)
 benchmark's own wording, in one pass, once its words say what it asks (:func:`reasked_questions`): the DynTAC-Sim
 quickstart's one pass compares better in its own words than its readings do (SFD 80.9 against 68.9, val) and answers
 real or fake in no other (experiments/2026-11-29_reask)."""
+EMBEDDING_MODES: tuple[str, ...] = ("stepwise-vote", "auto")
+"""Answering modes that read a one-clip question whose words name no property with a sentence embedding
+(``model.sentence_reader``): the word list first, the embedding's nearest property where it reads none
+(experiments/2026-11-29_hybrid_reader)."""
 REASKED_TASKS = ("SFD", "SOI", "PC", "RFOR")
 _REASK_TEMPLATES: dict[str, tuple[str, ...]] = {
     "SFD which": ("sfd_which_touch",), "SFD yesno": ("sfd_yesno_touch",),
@@ -123,33 +128,46 @@ class Stepwise:
     (or, for a scenario, as needing nothing in particular)."""
 
 
-def _one_clip_asked(question: str, vocabulary: str) -> tuple[str, dict[str, Any]] | None:
+def _read_by_embedding(question: str, vocabulary: str) -> str | None:
+    """The sentence-embedding reader's property (the model loaded, and fetched, only when a question needs it)."""
+    from tacreasoner.model.sentence_reader import default_property_reader
+
+    return default_property_reader()(question, vocabulary)
+
+
+def _property_fallback(embedding: bool) -> PropertyFallback | None:
+    return _read_by_embedding if embedding else None
+
+
+def _one_clip_asked(question: str, vocabulary: str, embedding: bool = False) -> tuple[str, dict[str, Any]] | None:
     """The properties a question about one clip names, as (task, view gold), read from its words
-    (:func:`tacreasoner.tasks.conclude.asked_properties`); None when they are not read."""
-    found = asked_properties(question, vocabulary)
+    (:func:`tacreasoner.tasks.conclude.asked_properties`), and with ``embedding`` by a sentence embedding where the
+    words name none (:data:`EMBEDDING_MODES`); None when they are not read."""
+    found = asked_properties(question, vocabulary, _property_fallback(embedding))
     if not found:
         return None
     return (f"TFA-{found[0]}" if len(found) == 1 else "TFA-combined"), {"attributes": found}
 
 
-def _one_clip_view_asked(question: str, vocabulary: str, reask: bool) -> tuple[str, dict[str, Any]] | None:
+def _one_clip_view_asked(question: str, vocabulary: str, reask: bool,
+                         embedding: bool = False) -> tuple[str, dict[str, Any]] | None:
     """What a question about one clip in untrained words asks, as (task, view gold): whether a fruit is real first
     (``RFOR`` with its fruit, :func:`tacreasoner.tasks.conclude.asked_fruit`; seen only with ``reask``, else left to
     one pass: never read as a property), else the properties it names (:func:`_one_clip_asked`); None in a wording
     the model was trained on (one pass reads those as well: experiments/2026-11-29_read_single_clip/decision.md)."""
     if trained_wording_of(question) is not None:
         return None
-    properties = _one_clip_asked(question, vocabulary)
+    properties = _one_clip_asked(question, vocabulary, embedding)
     if (fruit := asked_fruit(question, names_property=properties is not None)) is not None:
         return ("RFOR", {"fruit": fruit}) if reask else None
     return properties
 
 
-def _single_clip_view(item: QAItem, reask: bool = False) -> QAItem | None:
+def _single_clip_view(item: QAItem, reask: bool = False, embedding: bool = False) -> QAItem | None:
     """A question about one clip as the mode sees it (:func:`_one_clip_view_asked`)."""
     if len(item.videos) != 1:
         return None
-    asked_here = _one_clip_view_asked(item.question, item.vocabulary, reask)
+    asked_here = _one_clip_view_asked(item.question, item.vocabulary, reask, embedding)
     if asked_here is None:
         return None
     task, gold = asked_here
@@ -157,17 +175,18 @@ def _single_clip_view(item: QAItem, reask: bool = False) -> QAItem | None:
 
 
 def question_view(item: QAItem, single_clip: bool = False, trained_one_pass: bool = False,
-                  reask: bool = False) -> QAItem | None:
+                  reask: bool = False, embedding: bool = False) -> QAItem | None:
     """``item`` as the mode may see it: the question, its videos and options, and what the question asks read from
     its words (:func:`tacreasoner.tasks.conclude.asked`), with no gold answer, gold levels or scenario needs. None when
     the words do not say what is asked (the item is then answered in one pass). ``single_clip``: a question about
     one clip is answered from its reading too (its properties read from the words), else in one pass.
     ``trained_one_pass``: a question in a trained wording is answered in one pass (None). ``reask``: a one-clip
-    question asking whether a fruit is real is seen too (as ``RFOR``, to be asked again: :func:`reasked_questions`)."""
+    question asking whether a fruit is real is seen too (as ``RFOR``, to be asked again: :func:`reasked_questions`).
+    ``embedding``: a one-clip question whose words name no property is read by a sentence embedding too."""
     if trained_one_pass and trained_wording_of(item.question) is not None:
         return None
     if item.task.startswith("TFA") or item.task == "RFOR":
-        return _single_clip_view(item, reask) if single_clip else None
+        return _single_clip_view(item, reask, embedding) if single_clip else None
     if item.task not in REASONED_TASKS:
         return None
     gold: dict[str, Any] = {}
@@ -188,13 +207,14 @@ _SCENARIO = re.compile(r"(?:suited for|an object for|imagine)\s+(.+?)\s*[.?](?:\
 
 
 def free_question_view(question: str, videos: int, vocabulary: str, single_clip: bool = False,
-                       trained_one_pass: bool = False, reask: bool = False) -> QAItem | None:
+                       trained_one_pass: bool = False, reask: bool = False,
+                       embedding: bool = False) -> QAItem | None:
     """A person's question over ``videos`` tactile videos as the stepwise mode's view, read from its words alone:
     a scenario with options "(A) the first object (B) the second object" (TSA), named options, one per video (OSC),
     "more, less or similar" over two videos (PC), a comparative over two (SFD) or a superlative over three (SOI);
     over one video with ``single_clip``, the properties it asks for (TFA). None when it is none of these (answered in
     one pass); with ``trained_one_pass`` also a question in a trained wording. ``reask``: a one-clip real-or-fake
-    question is seen as ``RFOR`` (:func:`reasked_questions`)."""
+    question is seen as ``RFOR`` (:func:`reasked_questions`). ``embedding``: as :func:`question_view`'s."""
     if question.count(PLACEHOLDER) != videos or videos < 1:
         return None
     if trained_one_pass and trained_wording_of(question) is not None:
@@ -203,7 +223,7 @@ def free_question_view(question: str, videos: int, vocabulary: str, single_clip:
     meta: dict[str, Any] = {}
     task, gold = None, None
     if videos == 1:
-        if single_clip and (asked_here := _one_clip_view_asked(question, vocabulary, reask)) is not None:
+        if single_clip and (asked_here := _one_clip_view_asked(question, vocabulary, reask, embedding)) is not None:
             task, gold = asked_here
         elif single_clip and (thing := beyond_touch(question, vocabulary)) is not None:
             task, gold = "TFA-combined", {"attributes": [], "beyond_touch": thing}

