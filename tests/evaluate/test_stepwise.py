@@ -432,3 +432,18 @@ def test_a_question_asked_again_in_several_wordings_gives_the_majoritys_reply() 
     assert pick_reasked([first, second, "<think>no answer"]) == 0  # a tie: the first wording's answer
     assert pick_reasked(["rambling", second, first]) == 1  # the first wording unreadable: the earliest of the tie
     assert pick_reasked(["", "still nothing"]) == 0
+
+
+def test_the_modes_with_the_embedding_read_a_one_clip_question_the_words_miss() -> None:
+    from tacreasoner.evaluate.stepwise import EMBEDDING_MODES, free_question_view
+
+    assert set(EMBEDDING_MODES) == {"auto", "stepwise-vote"}
+    typo = "<tactile> is the surface smoth or ruff?"  # written for this test
+    assert free_question_view(typo, 1, "physiclear", single_clip=True) is None, "the words alone read nothing"
+    view = free_question_view(typo, 1, "physiclear", single_clip=True, embedding=True)
+    assert view is not None and view.task == "TFA-roughness" and view.gold == {"attributes": ["roughness"]}
+    fake = free_question_view("<tactile> is this orange real or fake?", 1, "physiclear", single_clip=True,
+                              reask=True, embedding=True)
+    assert fake is not None and fake.task == "RFOR", "a real-or-fake question is never read as a property"
+    colour = free_question_view("<tactile> what colour is it?", 1, "physiclear", single_clip=True, embedding=True)
+    assert colour is not None and colour.gold.get("beyond_touch") == "colour"

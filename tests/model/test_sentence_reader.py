@@ -48,7 +48,7 @@ def test_the_fetched_folder_is_found_again_and_records_where_it_came_from(reader
 
 def test_reads_an_idiom_and_a_typo_the_word_list_misses(reader: PropertyReader) -> None:
     # written for this test, not taken from any held-out set
-    typo = "<tactile> is it smoth or ruff on top?"
+    typo = "<tactile> is the surface smoth or ruff?"
     assert asked_properties(typo, "physiclear") is None, "the word list has no typo entries"
     assert asked_properties(typo, "physiclear", reader) == ["roughness"]
     idiom = "<tactile>\nDoes any part of it project outward from the face of the thing?"
