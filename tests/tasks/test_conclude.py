@@ -171,6 +171,11 @@ def test_single_clip_tasks_are_not_reasoned_over_objects() -> None:
     ("She asked what it felt like - so what are its hardness, roughness and bumpiness? <tactile>", "physiclear",
      ["hardness", "roughness", "bumpiness"]),
     ("Is it sticky like a rubber mat? <tactile>", "vtv150k", ["friction"]),
+    # eleventh version: "hard to" a difficulty is no hardness; "hard to the touch" is, and so is a hardness verb
+    ("Is it hard to keep hold of, is it slippery? <tactile>", "vtv150k", ["friction"]),
+    ("<tactile> It hardly slides at all, does it?", "vtv150k", ["friction"]),
+    ("<tactile> Is it hard to the touch?", "vtv150k", ["hardness"]),
+    ("<tactile> Is it hard to squeeze?", "physiclear", ["hardness"]),
 ])
 def test_a_one_clip_questions_properties_are_read_from_everyday_words(question: str, vocabulary: str,
                                                                      expected: list[str] | None) -> None:

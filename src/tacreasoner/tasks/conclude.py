@@ -186,8 +186,11 @@ stays…"): beside a springing-back phrase they do not make it a hardness questi
 ACTION_WORDS: tuple[str, ...] = ("slid", "press in", "presses in", "push in", "pushes in")
 """Words for what the robot did ("the sensor slid along it", "pushed in"): they name a property only when the
 question names no other (fifth version)."""
-NOT_PROPERTY_WORDS = re.compile(r"\b(grippers?|sliders?)\b", re.IGNORECASE)
-"""Words that start like a property word but name a thing (the robot's gripper): not read as the property."""
+NOT_PROPERTY_WORDS = re.compile(r"\b(grippers?|sliders?)\b|\bhardly\b|"
+                                r"\bhard(?:er)?\s+(?:to|for)\b(?!\s+(?:the\s+)?touch)", re.IGNORECASE)
+"""Words that start like a property word but name a thing (the robot's gripper) or a difficulty ("hard to hold onto
+with wet hands", "hardly": eleventh version, after the fourteenth set was read; "hard to the touch" is still
+hardness, and "hard to squeeze" is by its verb): not read as the property."""
 _WHOLE_OBJECT = re.compile(r"\b(feels?\s+like|profile|properties|describe\s+(what|how|this|the)|how\s+does\s+(it|this)"
                            r"\s+(\w+\s+)?feel|what\s+do\s+you\s+feel)\b", re.IGNORECASE)
 
