@@ -176,6 +176,11 @@ def test_single_clip_tasks_are_not_reasoned_over_objects() -> None:
     ("<tactile> It hardly slides at all, does it?", "vtv150k", ["friction"]),
     ("<tactile> Is it hard to the touch?", "vtv150k", ["hardness"]),
     ("<tactile> Is it hard to squeeze?", "physiclear", ["hardness"]),
+    # twelfth version: a story's words are background, the property asked is the one its question names...
+    ("We test rough-terrain tyres. <tactile> Is the tread lumpy or flat?", "physiclear", ["bumpiness"]),
+    # ...and a question naming two properties, or none, keeps what the whole reads
+    ("We test tyres. Is it hard? Is it rough? <tactile>", "physiclear", ["hardness", "roughness"]),
+    ("Rough and hard, I reckon. Tell me. <tactile>", "physiclear", ["hardness", "roughness"]),
 ])
 def test_a_one_clip_questions_properties_are_read_from_everyday_words(question: str, vocabulary: str,
                                                                      expected: list[str] | None) -> None:

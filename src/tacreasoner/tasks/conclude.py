@@ -220,7 +220,11 @@ def asked_properties(question: str, vocabulary: str, fallback: PropertyFallback 
     vocab = get_vocabulary(vocabulary)
     # Analogies' things are examples ("slick like wet soap or sticky like a rubber mat?" asks friction), unless
     # the analogy is all the question says ("Is it more like sandpaper or glass?").
-    found = _named_properties(_drop_analogies(text, vocab), vocab) or _named_properties(text, vocab)
+    found = _read_words(text, vocab)
+    if len(found) > 1:  # a story's words are background: the property asked is the one its question names
+        asked_in_questions = {a for sentence in _QUESTION_SENTENCE.findall(text) for a in _read_words(sentence, vocab)}
+        if len(asked_in_questions) == 1:
+            return list(asked_in_questions)
     if found:
         return found
     if _WHOLE_OBJECT.search(text):
@@ -230,6 +234,17 @@ def asked_properties(question: str, vocabulary: str, fallback: PropertyFallback 
         return None
     read = fallback(question, vocabulary)
     return [read] if read in vocab else None
+
+
+_QUESTION_SENTENCE = re.compile(r"[^.!?\n]*\?")
+"""A sentence that asks (ends in a question mark): "Working on a grip-texture study. Is the surface uneven with
+bumps, or flat?" asks bumpiness, not roughness (twelfth version, after the fifteenth set was read)."""
+
+
+def _read_words(text: str, vocab: Mapping[str, Attribute]) -> list[str]:
+    """The properties ``text``'s words name (:func:`_named_properties`), its analogies' things left out unless the
+    analogy is all it says ("Is it more like sandpaper or glass?")."""
+    return _named_properties(_drop_analogies(text, vocab), vocab) or _named_properties(text, vocab)
 
 
 def _drop_analogies(text: str, vocab: Mapping[str, Attribute]) -> str:
