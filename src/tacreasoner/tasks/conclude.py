@@ -153,7 +153,9 @@ keeping a fingerprint; resisting a press) after the seventh set was read, measur
 version's (standing proud, sitting flush: :data:`STANDS_PROUD`) after the eighth and ninth sets were read (each
 missed it once), measured on the tenth (experiments/2026-11-29_lexicon_v6_again); the eighth version's (holding a
 dent, deforming for good, self-restoring: :data:`_SPRINGS_BACK`, :data:`RECOVERY_WORDS`) after the tenth and eleventh
-were read, measured on the twelfth. Where a
+were read, measured on the twelfth; :func:`asked_properties`' tenth to twelfth versions (an analogy naming a
+property keeps it; "hard to" a difficulty; a story's words are background) each after the thirteenth to fifteenth
+sets were read, measured on the next (experiments/2026-11-29_hybrid_reader). Where a
 vocabulary has no roughness, its friction takes the roughness words (VTV-150K words friction as rough/smooth)."""
 _ANALOGY = re.compile(r"\b(?:like|the\s+way)\b(?!\s+(?:to|it|this|that|they|you|i|in\s+terms|with\s+respect)\b)"
                       r"[^,;:?.!\n]*?"
@@ -218,8 +220,6 @@ def asked_properties(question: str, vocabulary: str, fallback: PropertyFallback 
     (:func:`asked_fruit`, :data:`BEYOND_TOUCH`: those have replies of their own)."""
     text = NOT_PROPERTY_WORDS.sub(" ", question.replace(PLACEHOLDER, " "))
     vocab = get_vocabulary(vocabulary)
-    # Analogies' things are examples ("slick like wet soap or sticky like a rubber mat?" asks friction), unless
-    # the analogy is all the question says ("Is it more like sandpaper or glass?").
     found = _read_words(text, vocab)
     if len(found) > 1:  # a story's words are background: the property asked is the one its question names
         asked_in_questions = {a for sentence in _QUESTION_SENTENCE.findall(text) for a in _read_words(sentence, vocab)}
@@ -242,8 +242,9 @@ bumps, or flat?" asks bumpiness, not roughness (twelfth version, after the fifte
 
 
 def _read_words(text: str, vocab: Mapping[str, Attribute]) -> list[str]:
-    """The properties ``text``'s words name (:func:`_named_properties`), its analogies' things left out unless the
-    analogy is all it says ("Is it more like sandpaper or glass?")."""
+    """The properties ``text``'s words name (:func:`_named_properties`). An analogy's things are examples ("slick
+    like wet soap or sticky like a rubber mat?" asks friction), unless the analogy is all it says ("Is it more like
+    sandpaper or glass?")."""
     return _named_properties(_drop_analogies(text, vocab), vocab) or _named_properties(text, vocab)
 
 
