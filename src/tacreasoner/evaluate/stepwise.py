@@ -43,7 +43,6 @@ from tacreasoner.tasks.building import join_words
 from tacreasoner.tasks.conclude import (
     REASONED_TASKS,
     Levels,
-    PropertyFallback,
     asked,
     asked_fruit,
     asked_properties,
@@ -150,15 +149,11 @@ def _read_by_embedding(question: str, vocabulary: str) -> str | None:
     return reader(question, vocabulary)
 
 
-def _property_fallback(embedding: bool) -> PropertyFallback | None:
-    return _read_by_embedding if embedding else None
-
-
 def _one_clip_asked(question: str, vocabulary: str, embedding: bool = False) -> tuple[str, dict[str, Any]] | None:
     """The properties a question about one clip names, as (task, view gold), read from its words
     (:func:`tacreasoner.tasks.conclude.asked_properties`), and with ``embedding`` by a sentence embedding where the
     words name none (:data:`EMBEDDING_MODES`); None when they are not read."""
-    found = asked_properties(question, vocabulary, _property_fallback(embedding))
+    found = asked_properties(question, vocabulary, _read_by_embedding if embedding else None)
     if not found:
         return None
     return (f"TFA-{found[0]}" if len(found) == 1 else "TFA-combined"), {"attributes": found}

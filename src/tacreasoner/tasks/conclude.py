@@ -229,8 +229,7 @@ def asked_properties(question: str, vocabulary: str, fallback: PropertyFallback 
         return found
     if _WHOLE_OBJECT.search(text):
         return list(vocab)
-    if fallback is None or _REAL_OR_FAKE.search(text) or asked_fruit(text) is not None or \
-            any(_names_a_stem(text, words) for words in BEYOND_TOUCH.values()):
+    if fallback is None or _asks_real(text) or _thing_beyond_touch(text) is not None:
         return None
     read = fallback(question, vocabulary)
     return [read] if read in vocab else None
@@ -328,8 +327,18 @@ def beyond_touch(question: str, vocabulary: str) -> str | None:
     it asks for none of the properties (:func:`asked_properties`) and not whether the object is real
     (:func:`asked_fruit`); else None."""
     text = question.replace(PLACEHOLDER, " ")
-    if asked_properties(text, vocabulary) is not None or _REAL_OR_FAKE.search(text) or asked_fruit(text) is not None:
+    if asked_properties(text, vocabulary) is not None or _asks_real(text):
         return None
+    return _thing_beyond_touch(text)
+
+
+def _asks_real(text: str) -> bool:
+    """Whether ``text`` asks if the object is real (real/fake words, or :func:`asked_fruit`)."""
+    return _REAL_OR_FAKE.search(text) is not None or asked_fruit(text) is not None
+
+
+def _thing_beyond_touch(text: str) -> str | None:
+    """The first :data:`BEYOND_TOUCH` thing ``text`` names ("colour"), else None."""
     return next((thing for thing, words in BEYOND_TOUCH.items() if _names_a_stem(text, words)), None)
 
 
