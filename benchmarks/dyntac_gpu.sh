@@ -201,7 +201,7 @@ setup)
     # the simulation outlives this call (its own session); the pipeline waits for sim.done
     # from its own copy of the tree: the next call replaces this one's
     cp -r "$PWD" "$W/repo" && (cd "$W/repo" && setsid nohup bash -c "start=\$(date +%s); \
-        PYTHONPATH=/tmp/site:$W/repo/src $TR simulate --out $W/sim --workers 15 > $W/logs/simulate.log 2>&1 \
+        PYTHONPATH=/tmp/site:$W/repo/src nice -n 10 $TR simulate --out $W/sim --workers 15 > $W/logs/simulate.log 2>&1 \
         && echo \"\$(( \$(date +%s) - start )) s\" > $W/sim.done" > /dev/null 2>&1 &)
     say "setup done; simulating in the background"
     ;;

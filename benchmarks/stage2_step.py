@@ -14,7 +14,9 @@ MFU counts model FLOPs the usual way (PaLM, appendix B): 6 × the LLM's non-embe
 12 × layers × hidden × sequence length for attention, over the GPU's dense bf16 peak (``--peak-tflops``; 989 for
 an H100 SXM). A LoRA step does less than that (no weight gradients for the frozen base) but recomputes the forward
 under activation checkpointing, so the figure compares with full fine-tuning MFUs, not with the work done.
-Results: benchmarks/results/stage2_step_<model>.{json,md}.
+``--measure-peak`` also times a large bf16 matmul on the same device, so the MFU is given against what the chip
+reaches as well as its data-sheet peak; ``--profile`` adds one profiled step's top operators (where the time goes).
+Results: benchmarks/results/stage2_step_<model>_mb<micro-batch>.{json,md}.
 """
 
 from __future__ import annotations
@@ -94,6 +96,58 @@ def model_flops_per_token(text, seq_len: int) -> float:
     return 6 * layers * per_layer + 12 * layers * hidden * seq_len
 
 
+def planned_memory_gb(config_path: str, micro_batch: int, seq_len: int, answer_fraction: float,
+                      layers: int | None) -> float | None:
+    """What ``tacreasoner memory-plan`` predicts for this step on one GPU (None for a cut-down model)."""
+    from tacreasoner.train.config import load_train_config
+    from tacreasoner.train.memory_plan import GB, plan_for_config
+
+    if layers is not None:
+        return None
+    base = load_train_config(config_path)
+    if base.stage2.global_batch % micro_batch:
+        return None
+    config = load_train_config(config_path, {"stage2.grad_accum": base.stage2.global_batch // micro_batch,
+                                             "data.max_length": seq_len})
+    (plan,) = plan_for_config(config, stage=2, world_sizes=(1,), gpu_gb=1000.0, answer_fraction=answer_fraction)
+    assert plan.batch_size == micro_batch, (plan.batch_size, micro_batch)
+    return plan.total / GB
+
+
+def measured_peak_tflops(device: str, size: int | None = None, repeats: int = 10) -> float:
+    """bf16 matmul TFLOP/s that this device reaches (size³ product, mean of ``repeats`` after 3 warm-ups)."""
+    import torch
+
+    size = size or (8192 if device == "cuda" else 1024)
+    a = torch.randn(size, size, device=device, dtype=torch.bfloat16)
+    b = torch.randn(size, size, device=device, dtype=torch.bfloat16)
+    for _ in range(3):
+        a @ b
+    if device == "cuda":
+        torch.cuda.synchronize()
+    t0 = time.perf_counter()
+    for _ in range(repeats):
+        a @ b
+    if device == "cuda":
+        torch.cuda.synchronize()
+    return 2 * size ** 3 * repeats / (time.perf_counter() - t0) / 1e12
+
+
+def profile_step(step, device: str, top: int = 15) -> list[dict]:
+    """One step under torch.profiler: the operators taking the most device (or, on a CPU, self CPU) time."""
+    from torch.profiler import ProfilerActivity, profile
+
+    activities = [ProfilerActivity.CPU] + ([ProfilerActivity.CUDA] if device == "cuda" else [])
+    with profile(activities=activities) as prof:
+        step()
+    events = prof.key_averages()
+    key = "self_device_time_total" if device == "cuda" else "self_cpu_time_total"
+    total = sum(getattr(e, key) for e in events) or 1.0
+    rows = sorted(events, key=lambda e: getattr(e, key), reverse=True)[:top]
+    return [{"op": e.key, "calls": e.count, "ms": round(getattr(e, key) / 1e3, 2),
+             "share": round(getattr(e, key) / total, 4)} for e in rows]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--config", default="configs/qwen2.5-7b.yaml")
@@ -104,6 +158,8 @@ def main() -> None:
     parser.add_argument("--warmup", type=int, default=3)
     parser.add_argument("--layers", type=int, default=None, help="fewer decoder layers (a CPU smoke test)")
     parser.add_argument("--peak-tflops", type=float, default=989.0, help="the GPU's dense bf16 peak")
+    parser.add_argument("--measure-peak", action="store_true", help="also time a large bf16 matmul here")
+    parser.add_argument("--profile", action="store_true", help="also profile one step: where the time goes")
     parser.add_argument("--out", default=None, help="results directory (default benchmarks/results)")
     args = parser.parse_args()
 
@@ -123,11 +179,8 @@ def main() -> None:
     trained.train()
     if cuda:
         torch.cuda.reset_peak_memory_stats()
-    times = []
-    for step in range(args.warmup + args.steps):
-        if cuda:
-            torch.cuda.synchronize()
-        t0 = time.perf_counter()
+
+    def one_step() -> torch.Tensor:
         with torch.autocast(device, dtype=torch.bfloat16):
             loss = trained(**inputs, num_items_in_batch=labelled, loss_only=True).loss
         loss.backward()
@@ -136,32 +189,65 @@ def main() -> None:
         optimizer.zero_grad(set_to_none=True)
         if cuda:
             torch.cuda.synchronize()
+        return loss
+
+    times = []
+    for step in range(args.warmup + args.steps):
+        if cuda:
+            torch.cuda.synchronize()
+        t0 = time.perf_counter()
+        loss = one_step()
         if step >= args.warmup:
             times.append(time.perf_counter() - t0)
     step_s = sorted(times)[len(times) // 2]
+    peak_gb = torch.cuda.max_memory_allocated() / 1e9 if cuda else None
+    reserved_gb = torch.cuda.max_memory_reserved() / 1e9 if cuda else None
+    profile = profile_step(one_step, device) if args.profile else None
+    measured = measured_peak_tflops(device) if args.measure_peak else None
+    planned_gb = planned_memory_gb(args.config, args.micro_batch, args.seq_len, args.answer_fraction, args.layers)
     tokens_per_s = args.micro_batch * args.seq_len / step_s
     text = model.config.text_config
-    mfu = model_flops_per_token(text, args.seq_len) * tokens_per_s / (args.peak_tflops * 1e12)
-    peak_gb = torch.cuda.max_memory_allocated() / 1e9 if cuda else None
+    achieved_tflops = model_flops_per_token(text, args.seq_len) * tokens_per_s / 1e12
+    mfu = achieved_tflops / args.peak_tflops
     result = {**info, "model": name, "config": args.config, "micro_batch": args.micro_batch, "seq_len": args.seq_len,
               "answer_fraction": args.answer_fraction, "gradient_checkpointing": config.model.gradient_checkpointing,
               "lora": {"r": config.lora.r, "alpha": config.lora.alpha}, "trainable_parameters": sum(
                   p.numel() for p in params), "parameters": sum(p.numel() for p in model.parameters()),
               "build_seconds": round(build_s, 1), "step_seconds_median": round(step_s, 3),
               "step_seconds": [round(t, 3) for t in times], "tokens_per_s": round(tokens_per_s, 1),
-              "mfu": round(mfu, 4), "peak_tflops": args.peak_tflops, "peak_memory_gb": peak_gb,
-              "final_loss": float(loss.detach())}
+              "achieved_tflops": round(achieved_tflops, 4), "mfu": round(mfu, 4), "peak_tflops": args.peak_tflops,
+              "measured_peak_tflops": round(measured, 1) if measured else None,
+              "mfu_of_measured_peak": round(achieved_tflops / measured, 4) if measured else None,
+              "peak_memory_gb": peak_gb, "peak_reserved_gb": reserved_gb, "memory_plan_gb": planned_gb,
+              "final_loss": float(loss.detach()),
+              "profile_top": profile}
     rows = [[name, info["gpu"] or "CPU", args.micro_batch, args.seq_len, f"{step_s:.3f}", f"{tokens_per_s:,.0f}",
-             f"{mfu:.1%}", f"{peak_gb:.1f}" if peak_gb is not None else "—"]]
+             f"{achieved_tflops:.1f}", f"{mfu:.1%}", f"{achieved_tflops / measured:.1%}" if measured else "—",
+             f"{peak_gb:.1f}" if peak_gb is not None else "—", f"{planned_gb:.1f}" if planned_gb else "—"]]
     md = header_md(f"Stage II step at full size, random weights: {name}", info)
-    md += md_table(["model", "device", "micro-batch", "tokens/example", "s/step (median)", "tokens/s", "MFU",
-                    "peak memory, GB"], rows)
+    md += md_table(["model", "device", "micro-batch", "tokens/example", "s/step (median)", "tokens/s",
+                    "model TFLOP/s", f"MFU (of {args.peak_tflops:g})",
+                    f"MFU (of measured {measured:.3g})" if measured else "MFU (of measured)", "peak memory, GB",
+                    "memory-plan, GB"], rows)
     md += (f"\n{len(times)} timed steps after {args.warmup} warm-up; LoRA r {config.lora.r}, "
            f"{result['trainable_parameters'] / 1e6:.1f} M trainable of {result['parameters'] / 1e9:.2f} B; "
            f"activation checkpointing {'on' if config.model.gradient_checkpointing else 'off'}; "
            f"{args.answer_fraction:.0%} of positions labelled. MFU: 6 N + 12 L H S FLOPs per token over "
            f"{args.peak_tflops:g} TFLOP/s (module docstring).\n")
+    if measured:
+        size = 8192 if cuda else 1024
+        md += f"\nMeasured peak: a {size}³ bf16 matmul on this device ran at {measured:.1f} TFLOP/s (mean of 10).\n"
+    if reserved_gb is not None:
+        md += (f"\nPeak memory: {peak_gb:.1f} GB allocated, {reserved_gb:.1f} GB reserved by PyTorch's allocator; "
+               f"`tacreasoner memory-plan` predicts {planned_gb:.1f} GB for this micro-batch on one GPU (its "
+               f"terms: frozen weights, trainable weights, gradients, AdamW, activations; no CUDA context).\n"
+               if planned_gb else "")
+    if profile:
+        md += "\nOne step profiled (torch.profiler; the operators with the most self device time):\n\n"
+        md += md_table(["operator", "calls", "ms", "share"],
+                       [[p["op"], p["calls"], f"{p['ms']:.1f}", f"{p['share']:.1%}"] for p in profile])
     slug = name.lower().replace(" ", "_").replace("(", "").replace(")", "").replace(".", "")
+    slug += f"_mb{args.micro_batch}"
     publish(f"stage2_step_{slug}", result, md, Path(args.out) if args.out else None)
 
 
