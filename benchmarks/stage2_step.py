@@ -133,19 +133,28 @@ def measured_peak_tflops(device: str, size: int | None = None, repeats: int = 10
     return 2 * size ** 3 * repeats / (time.perf_counter() - t0) / 1e12
 
 
-def profile_step(step, device: str, top: int = 15) -> list[dict]:
-    """One step under torch.profiler: the operators taking the most device (or, on a CPU, self CPU) time."""
+def profile_step(step, device: str, top: int = 15) -> tuple[list[dict], float]:
+    """One step under torch.profiler: the operators taking the most device (on a CPU, self CPU) time, each with its
+    share of the device's busy time, and that busy time in ms. On a GPU the busy time sums the kernels, each once:
+    an operator's self device time is its kernels' time, so adding kernel rows and operator rows would count it
+    twice."""
     from torch.profiler import ProfilerActivity, profile
 
     activities = [ProfilerActivity.CPU] + ([ProfilerActivity.CUDA] if device == "cuda" else [])
     with profile(activities=activities) as prof:
         step()
-    events = prof.key_averages()
-    key = "self_device_time_total" if device == "cuda" else "self_cpu_time_total"
-    total = sum(getattr(e, key) for e in events) or 1.0
-    rows = sorted(events, key=lambda e: getattr(e, key), reverse=True)[:top]
-    return [{"op": e.key, "calls": e.count, "ms": round(getattr(e, key) / 1e3, 2),
-             "share": round(getattr(e, key) / total, 4)} for e in rows]
+    events = list(prof.key_averages())
+    if device == "cuda":
+        key = "self_device_time_total"
+        kernels = [e for e in events if str(getattr(e, "device_type", "")).endswith("CUDA")]
+        ops = [e for e in events if e not in kernels]
+        busy = sum(getattr(e, key) for e in kernels)
+    else:
+        key, ops = "self_cpu_time_total", events
+        busy = sum(getattr(e, key) for e in events)
+    rows = sorted(ops, key=lambda e: getattr(e, key), reverse=True)[:top]
+    return ([{"op": e.key, "calls": e.count, "ms": round(getattr(e, key) / 1e3, 2),
+              "share": round(getattr(e, key) / (busy or 1.0), 4)} for e in rows], busy / 1e3)
 
 
 def main() -> None:
@@ -202,7 +211,7 @@ def main() -> None:
     step_s = sorted(times)[len(times) // 2]
     peak_gb = torch.cuda.max_memory_allocated() / 1e9 if cuda else None
     reserved_gb = torch.cuda.max_memory_reserved() / 1e9 if cuda else None
-    profile = profile_step(one_step, device) if args.profile else None
+    profile, busy_ms = profile_step(one_step, device) if args.profile else (None, None)
     measured = measured_peak_tflops(device) if args.measure_peak else None
     planned_gb = planned_memory_gb(args.config, args.micro_batch, args.seq_len, args.answer_fraction, args.layers)
     tokens_per_s = args.micro_batch * args.seq_len / step_s
@@ -220,7 +229,7 @@ def main() -> None:
               "mfu_of_measured_peak": round(achieved_tflops / measured, 4) if measured else None,
               "peak_memory_gb": peak_gb, "peak_reserved_gb": reserved_gb, "memory_plan_gb": planned_gb,
               "final_loss": float(loss.detach()),
-              "profile_top": profile}
+              "profile_top": profile, "profile_busy_ms": round(busy_ms, 1) if busy_ms else None}
     rows = [[name, info["gpu"] or "CPU", args.micro_batch, args.seq_len, f"{step_s:.3f}", f"{tokens_per_s:,.0f}",
              f"{achieved_tflops:.1f}", f"{mfu:.1%}", f"{achieved_tflops / measured:.1%}" if measured else "—",
              f"{peak_gb:.1f}" if peak_gb is not None else "—", f"{planned_gb:.1f}" if planned_gb else "—"]]
@@ -243,7 +252,8 @@ def main() -> None:
                f"terms: frozen weights, trainable weights, gradients, AdamW, activations; no CUDA context).\n"
                if planned_gb else "")
     if profile:
-        md += "\nOne step profiled (torch.profiler; the operators with the most self device time):\n\n"
+        md += (f"\nOne step profiled (torch.profiler): the device was busy {busy_ms:.0f} ms; the operators with the "
+               f"most self device time, each with its share of that busy time:\n\n")
         md += md_table(["operator", "calls", "ms", "share"],
                        [[p["op"], p["calls"], f"{p['ms']:.1f}", f"{p['share']:.1%}"] for p in profile])
     slug = name.lower().replace(" ", "_").replace("(", "").replace(")", "").replace(".", "")
