@@ -51,6 +51,14 @@ class TactileEncoderConfig:
     temporal_tokens: int = 4
     """Length of the aggregated temporal sequence F̄_temp (time is what it is for, so more than one)."""
     question_conditioning: bool = True
+    temporal_norm: bool = False
+    """Each clip's difference tokens (the stem's output less its output for no change, which its biases set) scaled
+    to unit RMS over time and channels before the time embedding is added. Without it the part of the stem's
+    spatial average that small frame differences move is tiny beside that constant and the time embedding, and a
+    trained branch's output barely depends on the clip (a still clip changed the shipped
+    encoder's output by 1e-7, relative; experiments/2026-11-29_sensor_temporal_diag). Scaling per clip also takes
+    a sensor's contrast (gel lighting, gain) out of the motion signal; the clip's magnitude of change is left to the
+    appearance branch."""
     standardize_appearance: bool = False
     """Each channel of the frozen appearance tokens is centred and scaled by its mean and standard deviation over the
     training clips (measured when Stage I starts, no labels read, then kept in the model), as a linear probe

@@ -66,6 +66,7 @@ class TemporalBranch(nn.Module):
         c = config.temporal_hidden_size
         heads = _heads_for(c, config.fusion_heads)
         self.stem = DifferenceStem(c)
+        self.normalise = config.temporal_norm
         self.time_embed = nn.Parameter(torch.zeros(config.num_frames - 1, c))
         nn.init.normal_(self.time_embed, std=0.02)
         self.context = nn.TransformerEncoderLayer(c, heads, dim_feedforward=2 * c, dropout=0.0, activation="gelu",
@@ -78,6 +79,9 @@ class TemporalBranch(nn.Module):
         v, t = pixel_values.shape[:2]
         diffs = (pixel_values[:, 1:] - pixel_values[:, :-1]).flatten(0, 1)
         tokens = self.stem(diffs).view(v, t - 1, -1)
+        if self.normalise:  # what the change adds to no change, at unit RMS per clip (encoder_config.temporal_norm)
+            tokens = tokens - self.stem(torch.zeros_like(diffs[:1]))
+            tokens = tokens * torch.rsqrt(tokens.pow(2).mean(dim=(1, 2), keepdim=True) + 1e-12)
         if t - 1 > self.time_embed.shape[0]:
             raise ValueError(f"temporal branch: got {t} frames but was built for at most "
                              f"{self.time_embed.shape[0] + 1}")
