@@ -102,6 +102,32 @@ def pm(mean: float, std: float | None) -> str:
     return pct(mean) if std is None or math.isnan(std) else f"{pct(mean)} ± {pct(std)}"
 
 
+def matmul_seconds(n: int, dtype_name: str, reps: int, warmup: int, device: str = "cpu") -> list[float]:
+    """Seconds of each of ``reps`` n×n×n matmuls in ``dtype_name`` on ``device``, after ``warmup`` untimed ones (a
+    GPU synchronised around each): the peak that achieved FLOP/s are read against."""
+    import time
+
+    import torch
+
+    dtype = getattr(torch, dtype_name)
+    a, b = torch.randn(n, n).to(device, dtype), torch.randn(n, n).to(device, dtype)
+
+    def sync() -> None:
+        if device == "cuda":
+            torch.cuda.synchronize()
+
+    for _ in range(warmup):
+        torch.mm(a, b)
+    times = []
+    for _ in range(reps):
+        sync()
+        start = time.perf_counter()
+        torch.mm(a, b)
+        sync()
+        times.append(time.perf_counter() - start)
+    return times
+
+
 def quickstart_stage_config(run: Path, stage: int, steps: int, output_dir: Path):
     """The quickstart's seed-0 training config for ``steps`` steps of ``stage`` into ``output_dir``, quiet (no logger,
     bar or checkpoints; a log record every step); Stage II starts from ``run``'s own Stage I model, copied in. For

@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, md_table, publish, stamp
+from _common import header_md, matmul_seconds, md_table, publish, stamp
 
 
 def build(config_path: str, layers: int | None, device: str):
@@ -114,23 +114,10 @@ def planned_memory_gb(config_path: str, micro_batch: int, seq_len: int, answer_f
     return plan.total / GB
 
 
-def measured_peak_tflops(device: str, size: int | None = None, repeats: int = 10) -> float:
-    """bf16 matmul TFLOP/s that this device reaches (size³ product, mean of ``repeats`` after 3 warm-ups)."""
-    import torch
-
-    size = size or (8192 if device == "cuda" else 1024)
-    a = torch.randn(size, size, device=device, dtype=torch.bfloat16)
-    b = torch.randn(size, size, device=device, dtype=torch.bfloat16)
-    for _ in range(3):
-        a @ b
-    if device == "cuda":
-        torch.cuda.synchronize()
-    t0 = time.perf_counter()
-    for _ in range(repeats):
-        a @ b
-    if device == "cuda":
-        torch.cuda.synchronize()
-    return 2 * size ** 3 * repeats / (time.perf_counter() - t0) / 1e12
+def measured_peak_tflops(device: str, size: int, repeats: int = 10) -> float:
+    """bf16 matmul TFLOP/s that this device reaches (size³ products, mean of ``repeats`` after 3 warm-ups)."""
+    times = matmul_seconds(size, "bfloat16", repeats, warmup=3, device=device)
+    return 2 * size ** 3 * len(times) / sum(times) / 1e12
 
 
 def profile_step(step, device: str, top: int = 15) -> tuple[list[dict], float]:
@@ -212,7 +199,8 @@ def main() -> None:
     peak_gb = torch.cuda.max_memory_allocated() / 1e9 if cuda else None
     reserved_gb = torch.cuda.max_memory_reserved() / 1e9 if cuda else None
     profile, busy_ms = profile_step(one_step, device) if args.profile else (None, None)
-    measured = measured_peak_tflops(device) if args.measure_peak else None
+    peak_size = 8192 if cuda else 1024  # the large square product of the measured peak
+    measured = measured_peak_tflops(device, peak_size) if args.measure_peak else None
     planned_gb = planned_memory_gb(args.config, args.micro_batch, args.seq_len, args.answer_fraction, args.layers)
     tokens_per_s = args.micro_batch * args.seq_len / step_s
     text = model.config.text_config
@@ -244,8 +232,8 @@ def main() -> None:
            f"{args.answer_fraction:.0%} of positions labelled. MFU: 6 N + 12 L H S FLOPs per token over "
            f"{args.peak_tflops:g} TFLOP/s (module docstring).\n")
     if measured:
-        size = 8192 if cuda else 1024
-        md += f"\nMeasured peak: a {size}³ bf16 matmul on this device ran at {measured:.1f} TFLOP/s (mean of 10).\n"
+        md += (f"\nMeasured peak: a {peak_size}³ bf16 matmul on this device ran at {measured:.1f} TFLOP/s "
+               f"(mean of 10).\n")
     if reserved_gb is not None:
         md += (f"\nPeak memory: {peak_gb:.1f} GB allocated, {reserved_gb:.1f} GB reserved by PyTorch's allocator; "
                f"`tacreasoner memory-plan` predicts {planned_gb:.1f} GB for this micro-batch on one GPU (its "

@@ -33,23 +33,14 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import header_md, md_table, publish, quickstart_stage_config, stamp
+from _common import header_md, matmul_seconds, md_table, publish, quickstart_stage_config, stamp
 
 WARMUP = 3
 
 
 def matmul_peak(dtype_name: str, n: int, reps: int) -> dict[str, float]:
     """Best GFLOP/s of an n×n×n matmul in ``dtype_name`` (the first call, a warm-up, not counted)."""
-    import torch
-
-    dtype = getattr(torch, dtype_name)
-    a, b = torch.randn(n, n).to(dtype), torch.randn(n, n).to(dtype)
-    torch.mm(a, b)
-    best = float("inf")
-    for _ in range(reps):
-        start = time.perf_counter()
-        torch.mm(a, b)
-        best = min(best, time.perf_counter() - start)
+    best = min(matmul_seconds(n, dtype_name, reps, warmup=1))
     return {"n": n, "best_s": best, "gflops": 2 * n**3 / best / 1e9}
 
 

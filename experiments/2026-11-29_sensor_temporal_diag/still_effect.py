@@ -14,9 +14,7 @@ from pathlib import Path
 
 import torch
 
-from tacreasoner.data.readers import read_video_clip
 from tacreasoner.evaluate.predict import load_trained
-from tacreasoner.model.video_processing import VideoProcessingConfig, preprocess_video
 
 
 def clips(bench: Path, n: int = 16) -> list[Path]:
@@ -35,13 +33,9 @@ def main() -> None:
     bench = Path("runs/sens/bench")
     root = Path(json.loads((bench / "bench.json").read_text())["video_root"])
     for model_dir in sys.argv[1:]:
-        loaded = load_trained(model_dir)
-        model = loaded[0] if isinstance(loaded, tuple) else loaded
+        model, processor = load_trained(model_dir)
         enc = model.tactile_encoder
-        video = VideoProcessingConfig.from_dict(json.loads((Path(model_dir) / "processor_config.json").read_text())
-                                                ["video"])
-        x = torch.stack([torch.from_numpy(preprocess_video(read_video_clip(root / p),
-                                                           video)) for p in clips(bench)])
+        x = processor.preprocess_videos([str(root / p) for p in clips(bench)])["pixel_values"]
         still = x[:, :1].expand_as(x).contiguous()
         q = torch.zeros(len(x), model.config.text_config.hidden_size)
         with torch.no_grad():
