@@ -32,10 +32,10 @@ __all__ = ["HELDOUT_WORDINGS", "PARAPHRASE_DIR", "WORDINGS", "Paraphrase", "chec
 PARAPHRASE_DIR = Path(__file__).parent / "paraphrases"
 WORDINGS = ("train", "heldout", "heldout2", "heldout3", "heldout4", "heldout5", "heldout6", "heldout7", "heldout8",
             "heldout9", "heldout10", "heldout11", "heldout12", "heldout13", "heldout14",
-            "heldout15", "heldout16", "heldout17")
+            "heldout15", "heldout16", "heldout17", "heldout18")
 HELDOUT_WORDINGS = ("heldout", "heldout2", "heldout3", "heldout4", "heldout5", "heldout6", "heldout7", "heldout8",
                     "heldout9", "heldout10", "heldout11", "heldout12", "heldout13", "heldout14",
-                    "heldout15", "heldout16", "heldout17")
+                    "heldout15", "heldout16", "heldout17", "heldout18")
 """Held-out sets: never trained on. ``heldout2`` (2026-11-29) was written after the stepwise modes' property lexicon
 (``tasks.conclude.asked_properties``) and never run through it before it was measured; ``heldout3`` (later that day)
 was written by someone who had not read the lexicon, and read only after its second version was committed: the
@@ -58,7 +58,10 @@ session, the same prompt, both committed unread together) before the hybrid read
 embedding where it reads no property) was written: it is measured on the thirteenth, lexicon v10 with it on the
 fourteenth; ``heldout15`` (the same prompt, after the fourteenth was read) measures the eleventh version, and
 ``heldout16`` (after the fifteenth was read) the twelfth (experiments/2026-11-29_hybrid_reader); ``heldout17`` (the
-next session, the same prompt, after the sixteenth was read) the twelfth again, unchanged."""
+next session, the same prompt, after the sixteenth was read) the twelfth again, unchanged; ``heldout18``
+(the session after, the same prompt, committed unread after the seventeenth was read, before the thirteenth version
+(an analogy between things, "does it feel like a cobblestone lane or a paved road?", read by the embedding) was
+written) to measure that version (experiments/2026-11-30_analogy_reader)."""
 FIELDS = frozenset({"id", "text", "attribute", "answer"})
 LETTER_TASKS = ("SFD", "SOI")
 """Tasks whose ``the first/second/third object`` answers a lettered wording turns into ``A``/``B``/``C``."""
