@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
+from tacreasoner.tasks.analogy import analogy_properties
 from tacreasoner.tasks.extract import extract_answer, split_reasoning
 from tacreasoner.tasks.scenarios import suitability
 from tacreasoner.tasks.schema import PC_RELATIONS, PLACEHOLDER, QAItem
@@ -155,7 +156,9 @@ missed it once), measured on the tenth (experiments/2026-11-29_lexicon_v6_again)
 dent, deforming for good, self-restoring: :data:`_SPRINGS_BACK`, :data:`RECOVERY_WORDS`) after the tenth and eleventh
 were read, measured on the twelfth; :func:`asked_properties`' tenth to twelfth versions (an analogy naming a
 property keeps it; "hard to" a difficulty; a story's words are background) each after the thirteenth to fifteenth
-sets were read, measured on the next (experiments/2026-11-29_hybrid_reader). Where a
+sets were read, measured on the next (experiments/2026-11-29_hybrid_reader); the thirteenth (two things offered
+instead of a property, "like a cobblestone street or a paved road?": :mod:`tacreasoner.tasks.analogy`) after the
+seventeenth was read, measured on the eighteenth (experiments/2026-11-30_analogy_reader). Where a
 vocabulary has no roughness, its friction takes the roughness words (VTV-150K words friction as rough/smooth)."""
 _ANALOGY = re.compile(r"\b(?:like|the\s+way)\b(?!\s+(?:to|it|this|that|they|you|i|in\s+terms|with\s+respect)\b)"
                       r"[^,;:?.!\n]*?"
@@ -214,10 +217,11 @@ modes pass ``model.sentence_reader.PropertyReader``: a sentence embedding's near
 
 def asked_properties(question: str, vocabulary: str, fallback: PropertyFallback | None = None) -> list[str] | None:
     """The properties a question about one clip asks for, read from its words (:data:`PROPERTY_WORDS`), in
-    vocabulary order: the ones it names, or every one for a question about how the object feels as a whole ("What
-    does this feel like?"); None when it asks about none of them ("Is this a real orange?"). ``fallback`` reads a
-    question the words name no property of, unless it asks whether a thing is real or what touch cannot tell
-    (:func:`asked_fruit`, :data:`BEYOND_TOUCH`: those have replies of their own)."""
+    vocabulary order: the ones it names; else the one two things offered differ on ("like a brick or a marshmallow?":
+    :func:`tacreasoner.tasks.analogy.analogy_properties`); else every one for a question about how the object feels
+    as a whole ("What does this feel like?"); None when it asks about none of them ("Is this a real orange?").
+    ``fallback`` reads a question the words name no property of, unless it asks whether a thing is real or what
+    touch cannot tell (:func:`asked_fruit`, :data:`BEYOND_TOUCH`: those have replies of their own)."""
     text = NOT_PROPERTY_WORDS.sub(" ", question.replace(PLACEHOLDER, " "))
     vocab = get_vocabulary(vocabulary)
     found = _read_words(text, vocab)
@@ -227,6 +231,13 @@ def asked_properties(question: str, vocabulary: str, fallback: PropertyFallback 
             return list(asked_in_questions)
     if found:
         return found
+    offered = analogy_properties(text, vocab)  # "like a cobblestone street or a paved road?" (thirteenth version)
+    if len(offered) == 1:
+        return list(offered)
+    if offered and fallback is not None and not _asks_real(text) and _thing_beyond_touch(text) is None:
+        read = fallback(question, vocabulary)
+        if read in offered:
+            return [read]
     if _WHOLE_OBJECT.search(text):
         return list(vocab)
     if fallback is None or _asks_real(text) or _thing_beyond_touch(text) is not None:
