@@ -7,7 +7,10 @@ under two frame preparations, which differ only for frames whose orientation is 
 
 * ``as_is``: frames resized as they come (a DIGIT's portrait 320×240 frame fills a strip of the 120×160 image);
 * ``match``: a portrait frame turned a quarter first (``orientation: match``; chosen by the appearance encoder's
-  linear probes, benchmarks/results/sensor_transfer_probe.md).
+  linear probes, benchmarks/results/sensor_transfer_probe.md);
+* ``match+gel`` (``--gel-reference``): turned, and each clip's colours mapped per channel so that its gel at rest has
+  the training sensor's statistics (``video.gel_reference``; experiments/2026-11-30_sensor_colour). It changes a seen
+  clip's input a little too, so the seen split is answered again under it, and its gap is to that row.
 
 Mini frames are landscape, so both preparations give them the same input: ``val`` is answered once per model.
 
@@ -33,21 +36,30 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, portable, publish, stamp
 
-PREPARATIONS = ("as_is", "match")
+PREPARATIONS = ("as_is", "match", "match+gel")
+CHANGES_SEEN = ("match+gel",)
+"""Preparations that change a seen-style clip's input too (``match`` and ``as_is`` leave a landscape Mini frame as it
+is): the seen split is answered again under them."""
 
 
-def with_preparation(model: Path, orientation: str, out: Path) -> Path:
-    """``model`` answering with its frames prepared with ``orientation`` (a folder of links, its processor config
-    rewritten; the model itself where it already prepares them so); the weights are the same."""
+def with_preparation(model: Path, preparation: str, out: Path, gel_reference: dict | None = None) -> Path:
+    """``model`` answering with its frames prepared by ``preparation`` (a folder of links, its processor config
+    rewritten; the model itself where it already prepares them so); the weights are the same. ``match+gel`` also
+    maps each clip's colours to ``gel_reference`` (the training sensor's gel at rest, ``video.gel_reference``)."""
     config = json.loads((model / "processor_config.json").read_text())
-    if config["video"].get("orientation", "as_is") == orientation:
+    video = dict(config["video"], orientation="as_is" if preparation == "as_is" else "match")
+    if preparation == "match+gel":
+        if gel_reference is None:
+            raise SystemExit("error: --preparations match+gel needs --gel-reference FILE")
+        video["gel_reference"] = gel_reference
+    if video == config["video"]:
         return model
     out.mkdir(parents=True, exist_ok=True)
     for f in model.iterdir():
         target = out / f.name
         if f.name != "processor_config.json" and not target.exists():
             target.symlink_to(f.resolve())
-    config["video"]["orientation"] = orientation
+    config["video"] = video
     (out / "processor_config.json").write_text(json.dumps(config, indent=2))
     return out
 
@@ -73,17 +85,26 @@ def main() -> None:
     ap.add_argument("--dtype", default="float32")
     ap.add_argument("--name", help="result file name (default: sensor_transfer_<split>)")
     ap.add_argument("--trained-on", default="Mini clips only", help="what the models trained on, for the page")
-    ap.add_argument("--preparations", nargs="+", default=list(PREPARATIONS), choices=PREPARATIONS,
+    ap.add_argument("--preparations", nargs="+", default=["as_is", "match"], choices=PREPARATIONS,
                     help="which to answer the held-out style with (on test: the chosen one, once)")
+    ap.add_argument("--gel-reference", type=Path, help="for match+gel: a JSON {mean, std} of the training sensor's "
+                    "gel at rest (experiments/2026-11-30_sensor_colour/gel_reference.py writes it from train clips)")
     args = ap.parse_args()
+    gel = None
+    if args.gel_reference:
+        measured = json.loads(args.gel_reference.read_text())
+        gel = {k: measured[k] for k in ("mean", "std")}
     info = stamp()
     seen, held = args.split_suffix, f"{args.split_suffix}_heldout_sensor"
     results: dict[str, dict] = {}
     for seed, model in enumerate(args.models):
         row = {"seen": evaluate(model, args.bench, seen, args.out / f"seed{seed}" / seen, args.dtype)}
         for prep in args.preparations:
-            prepared = with_preparation(model, prep, args.out / f"seed{seed}" / f"model_{prep}")
+            prepared = with_preparation(model, prep, args.out / f"seed{seed}" / f"model_{prep}", gel)
             row[prep] = evaluate(prepared, args.bench, held, args.out / f"seed{seed}" / f"{held}_{prep}", args.dtype)
+            if prep in CHANGES_SEEN:
+                row[f"seen_{prep}"] = evaluate(prepared, args.bench, seen, args.out / f"seed{seed}" / f"{seen}_{prep}",
+                                               args.dtype)
         results[f"seed{seed}"] = row
         print(f"seed {seed}: {seen} {100 * row['seen']['average']:.1f}, " + ", ".join(
             f"{held} {p} {100 * row[p]['average']:.1f}" for p in args.preparations), flush=True)
@@ -92,12 +113,12 @@ def main() -> None:
         values = [100 * (r[key]["average"] if task is None else r[key]["tasks"][task]) for r in results.values()]
         return float(np.mean(values)), float(np.std(values, ddof=1)) if len(values) > 1 else 0.0
 
-    both = set(PREPARATIONS) <= set(args.preparations)
+    both = {"as_is", "match"} <= set(args.preparations)
     adopted = both and all(r["match"]["average"] > r["as_is"]["average"] for r in results.values())
     bench = json.loads((args.bench / "bench.json").read_text())
     data = {**info, "bench": portable(str(args.bench)), "models": [portable(str(m)) for m in args.models],
             "seen_split": seen, "heldout_split": held, "heldout_sensor": bench.get("heldout_sensor"),
-            "dtype": args.dtype, "trained_on": args.trained_on, "results": results,
+            "dtype": args.dtype, "trained_on": args.trained_on, "results": results, "gel_reference": gel,
             "match_adopted_by_rule": adopted if seen == "val" and both else None}
     tasks = list(next(iter(results.values()))["seen"]["tasks"])
     md = header_md(f"A sensor style never seen in training: {seen} (Mini) against {held} "
@@ -107,13 +128,18 @@ def main() -> None:
            f"styles. Rule fixed before the first answer: `match` is adopted if its {held} average beats `as_is`'s "
            "in every seed.\n\n")
     rows = []
-    for label, key in ((f"{seen} (Mini, seen)", "seen"), *((f"{held}, {p}", p) for p in args.preparations)):
+    shown = [(f"{seen} (Mini, seen)", "seen")]
+    for p in args.preparations:
+        shown += [(f"{seen} (Mini, seen), {p}", f"seen_{p}")] if p in CHANGES_SEEN else []
+        shown.append((f"{held}, {p}", p))
+    for label, key in shown:
         mean, std = stat(key)
         rows.append([label, f"**{mean:.1f} ± {std:.1f}**",
                      *[f"{100 * r[key]['average']:.1f}" for r in results.values()],
                      *[f"{stat(key, t)[0]:.1f}" for t in tasks]])
     md += md_table(["answers", "average (mean ± sd over seeds)", *results, *tasks], rows)
-    gaps = ", ".join(f"{p} {stat('seen')[0] - stat(p)[0]:+.1f}" for p in args.preparations)
+    gaps = ", ".join(f"{p} {stat(f'seen_{p}' if p in CHANGES_SEEN else 'seen')[0] - stat(p)[0]:+.1f}"
+                     for p in args.preparations)
     md += (f"\nGap to the seen style (seen − held-out, mean over seeds): {gaps} points (target ≤ 5)."
            + (f" Rule: `match` {'adopted' if adopted else 'not adopted'}." if seen == "val" and both else "") + "\n")
     publish(args.name or f"sensor_transfer_{seen}", data, md)

@@ -7,7 +7,7 @@ import pytest
 
 from tacreasoner.data.clip import TactileClip
 from tacreasoner.model.encoder_config import TactileEncoderConfig
-from tacreasoner.model.video_processing import VideoProcessingConfig, preprocess_video
+from tacreasoner.model.video_processing import VideoProcessingConfig, measure_gel_reference, preprocess_video
 
 
 def _frames(n: int = 12, h: int = 24, w: int = 32, seed: int = 0) -> np.ndarray:
@@ -139,3 +139,47 @@ def test_magnitude_colour_is_the_size_of_the_change_without_its_colour() -> None
     with pytest.raises(ValueError, match="colour 'magnitude' needs background 'subtract'"):
         VideoProcessingConfig(background="keep", colour="magnitude")
     assert VideoProcessingConfig.from_dict(config.to_dict()) == config
+
+
+def _lit_gel(seed: int, gain: tuple[float, float, float], offset: tuple[float, float, float]) -> np.ndarray:
+    """Eight 24×32 frames: a shaded gel with a growing imprint, seen through a per-channel gain and offset."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:24, 0:32]
+    base = np.stack([60 + 2 * xx, 100 + 3 * yy, 120 + xx + yy], axis=-1).astype(np.float64)
+    frames = []
+    for t in range(8):
+        imprint = 40.0 * t / 7 * np.exp(-((yy - 12) ** 2 + (xx - 16) ** 2) / 30.0)
+        frames.append(base + imprint[..., None] + rng.normal(0, 1, base.shape))
+    lit = np.asarray(frames) * np.asarray(gain) + np.asarray(offset)
+    return np.clip(lit, 0, 255).astype(np.uint8)
+
+
+def test_gel_reference_maps_another_sensors_tint_back_and_leaves_the_reference_sensor_alone() -> None:
+    seen = _lit_gel(0, (1.0, 1.0, 1.0), (0, 0, 0))
+    other = _lit_gel(0, (0.6, 1.3, 0.8), (50, -40, 20))  # the same touch through another sensor's colours
+    reference = measure_gel_reference([seen])
+    plain = VideoProcessingConfig(num_frames=8, image_size=(24, 32), background="keep", mean=0.0, std=1.0)
+    mapped = VideoProcessingConfig(num_frames=8, image_size=(24, 32), background="keep", mean=0.0, std=1.0,
+                                   gel_reference=reference)
+    # the seen sensor's own clip is (nearly) unchanged
+    assert np.abs(preprocess_video(seen, mapped) - preprocess_video(seen, plain)).max() < 1e-3
+    # the other sensor's clip comes back close to the seen one's, where unmapped it is far
+    before = np.abs(preprocess_video(other, plain) - preprocess_video(seen, plain)).mean()
+    after = np.abs(preprocess_video(other, mapped) - preprocess_video(seen, plain)).mean()
+    assert after < before / 10 and after < 0.01
+    assert np.allclose(reference["mean"], seen[0].reshape(-1, 3).mean(0) / 255, atol=1e-4)
+
+
+def test_gel_reference_settings_are_checked_and_saved() -> None:
+    ref = {"mean": [0.2, 0.4, 0.4], "std": [0.1, 0.06, 0.1]}
+    config = VideoProcessingConfig(background="keep", gel_reference=ref)
+    assert VideoProcessingConfig.from_dict(config.to_dict()) == config
+    assert "gel_reference" not in VideoProcessingConfig(background="keep").to_dict()  # old configs keep their key
+    with pytest.raises(ValueError, match="needs background 'keep'"):
+        VideoProcessingConfig(background="subtract", gel_reference=ref)
+    with pytest.raises(ValueError, match="gel_reference must be"):
+        VideoProcessingConfig(background="keep", gel_reference={"mean": [0.2, 0.4]})
+    with pytest.raises(ValueError, match="std must be > 0"):
+        VideoProcessingConfig(background="keep", gel_reference={"mean": [0.2] * 3, "std": [0.1, 0.0, 0.1]})
+    with pytest.raises(ValueError, match="no clips"):
+        measure_gel_reference([])

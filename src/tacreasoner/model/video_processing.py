@@ -25,7 +25,8 @@ from tacreasoner.data.sampling import (
 )
 from tacreasoner.fields import reject_unknown_fields
 
-__all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "preprocess_video", "sensor_index", "sensor_of"]
+__all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "measure_gel_reference", "preprocess_video",
+           "sensor_index", "sensor_of"]
 
 BACKGROUNDS = ("subtract", "keep")
 COLOURS = ("rgb", "magnitude")
@@ -58,6 +59,11 @@ class VideoProcessingConfig:
     orientation: str = "as_is"
     """``match``: a portrait frame (a DIGIT's 320×240) is turned a quarter to the model's landscape ``image_size``
     (and the other way round) before resizing, so it fills the image instead of a strip of it."""
+    gel_reference: dict[str, tuple[float, float, float]] | None = None
+    """With ``keep``: the training sensor's gel at rest, per-channel ``mean`` and ``std`` of its frame in [0, 1]
+    (:func:`measure_gel_reference` over training clips). Each clip's colours are then mapped, channel by channel, so
+    that its own gel at rest has those statistics: another sensor's tint and gain become the training sensor's,
+    and a clip of the training sensor is left nearly as it is. Per clip; nothing is fitted on evaluation clips."""
 
     def __post_init__(self) -> None:
         self.image_size = tuple(int(v) for v in self.image_size)  # type: ignore[assignment]
@@ -75,6 +81,17 @@ class VideoProcessingConfig:
         if self.colour == "magnitude" and self.background != "subtract":
             raise ValueError("video processing: colour 'magnitude' needs background 'subtract' (it is the size of "
                              "the change from the gel at rest)")
+        if self.gel_reference is not None:
+            ref = dict(self.gel_reference)
+            if set(ref) != {"mean", "std"} or any(len(ref[k]) != 3 for k in ref):
+                raise ValueError("video processing: gel_reference must be {mean: [r, g, b], std: [r, g, b]}, got "
+                                 f"{self.gel_reference!r}")
+            if self.background != "keep":
+                raise ValueError("video processing: gel_reference needs background 'keep' (a subtracted frame has "
+                                 "no gel colours left to map)")
+            if min(ref["std"]) <= 0:
+                raise ValueError(f"video processing: gel_reference std must be > 0, got {ref['std']}")
+            self.gel_reference = {k: tuple(float(v) for v in ref[k]) for k in ("mean", "std")}
         if self.orientation not in ORIENTATIONS:
             raise ValueError(f"video processing: orientation {self.orientation!r} is not one of "
                              f"{', '.join(ORIENTATIONS)}")
@@ -100,13 +117,42 @@ class VideoProcessingConfig:
                 "background": self.background,
                 # written only when set, so a config (and a cache key) from before these options stays the same
                 **({"colour": self.colour} if self.colour != "rgb" else {}),
-                **({"orientation": self.orientation} if self.orientation != "as_is" else {})}
+                **({"orientation": self.orientation} if self.orientation != "as_is" else {}),
+                **({"gel_reference": {k: list(v) for k, v in self.gel_reference.items()}}
+                   if self.gel_reference is not None else {})}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None) -> VideoProcessingConfig:
         data = dict(data or {})
         reject_unknown_fields(cls, data, "video processing config: unknown keys", known="declared")
         return cls(**data)
+
+
+def _gel_statistics(frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-channel mean and standard deviation of one uint8 H×W×3 frame, in [0, 1]."""
+    pixels = frame.reshape(-1, 3).astype(np.float64) / 255.0
+    return pixels.mean(axis=0), pixels.std(axis=0)
+
+
+def _to_gel_reference(out: np.ndarray, background: np.ndarray, reference: dict[str, tuple[float, ...]]) -> np.ndarray:
+    """``out`` (frames in [0, 1]) mapped per channel so that ``background`` would have ``reference``'s statistics."""
+    mean, std = _gel_statistics(background)
+    gain = np.asarray(reference["std"]) / np.maximum(std, 1e-3)
+    shifted = (out - mean.astype(np.float32)) * gain.astype(np.float32) + np.asarray(reference["mean"], np.float32)
+    return np.clip(shifted, 0.0, 1.0, out=shifted)
+
+
+def measure_gel_reference(videos: Sequence[VideoInput]) -> dict[str, list[float]]:
+    """The gel at rest of ``videos`` (training clips of one sensor): the mean over clips of each clip's
+    per-channel mean and standard deviation, for :attr:`VideoProcessingConfig.gel_reference`."""
+    if not videos:
+        raise ValueError("measure_gel_reference: no clips given")
+    stats = []
+    for video in videos:
+        frames, phases, _ = _frames_and_phases(video)
+        stats.append(_gel_statistics(background_frame(frames, phases)))
+    return {"mean": np.mean([m for m, _ in stats], axis=0).round(5).tolist(),
+            "std": np.mean([s for _, s in stats], axis=0).round(5).tolist()}
 
 
 def sensor_of(video: VideoInput) -> str:
@@ -155,6 +201,8 @@ def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = N
                          frames=frames if method in ("salient", "contact") else None,
                          phases=phases if method == "phase" else None, seed=seed)
     keep = config.background == "keep"
+    if keep and config.gel_reference is not None and background is None:
+        background = background_frame(frames, phases)
     if keep:
         chosen = frames[idx]
     else:  # the gel at rest first, prepared with the frames
@@ -168,6 +216,8 @@ def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = N
     if keep:
         out = chosen.astype(np.float32)
         out /= 255.0
+        if config.gel_reference is not None:
+            out = _to_gel_reference(out, background, config.gel_reference)
     else:
         out = subtract_background(chosen[1:], chosen[0])
         if config.colour == "magnitude":
