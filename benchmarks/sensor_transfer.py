@@ -64,6 +64,17 @@ def with_preparation(model: Path, preparation: str, out: Path, gel_reference: di
     return out
 
 
+def rule_text(preparations: list[str], held: str, seen: str, seeds: int) -> str:
+    """The rule the page's preparations were measured under (each fixed before its first answer)."""
+    if "match+gel" in preparations:
+        return ("Rule fixed before the first answer (experiments/2026-11-30_sensor_colour/criteria.md): `match+gel` "
+                f"is adopted if its {held} average beats `match`'s in every one of 3 seeds and its {seen} mean is "
+                f"within 1 point of {seen} without it" + ("" if seeds >= 3 else f"; with {seeds} seed(s) answered, "
+                                                           "the rule is not decided here") + ".")
+    return (f"Rule fixed before the first answer: `match` is adopted if its {held} average beats `as_is`'s in every "
+            "seed.")
+
+
 def evaluate(model: Path, bench: Path, split: str, out: Path, dtype: str) -> dict:
     if not (out / "report.json").is_file():
         if out.exists():
@@ -125,8 +136,7 @@ def main() -> None:
                    f"({bench.get('heldout_sensor')})", info)
     md += (f"Models: {', '.join(f'`{portable(str(m))}`' for m in args.models)} (the quickstart recipe, one per seed, "
            f"trained on {args.trained_on}); weights {args.dtype}; strict answer extraction. The same objects in both "
-           f"styles. Rule fixed before the first answer: `match` is adopted if its {held} average beats `as_is`'s "
-           "in every seed.\n\n")
+           f"styles. {rule_text(args.preparations, held, seen, len(results))}\n\n")
     rows = []
     shown = [(f"{seen} (Mini, seen)", "seen")]
     for p in args.preparations:
@@ -134,7 +144,8 @@ def main() -> None:
         shown.append((f"{held}, {p}", p))
     for label, key in shown:
         mean, std = stat(key)
-        rows.append([label, f"**{mean:.1f} ± {std:.1f}**",
+        spread = f" ± {std:.1f}" if len(results) > 1 else " (one seed)"
+        rows.append([label, f"**{mean:.1f}{spread}**",
                      *[f"{100 * r[key]['average']:.1f}" for r in results.values()],
                      *[f"{stat(key, t)[0]:.1f}" for t in tasks]])
     md += md_table(["answers", "average (mean ± sd over seeds)", *results, *tasks], rows)
