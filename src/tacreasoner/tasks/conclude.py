@@ -234,13 +234,12 @@ def asked_properties(question: str, vocabulary: str, fallback: PropertyFallback 
     offered = analogy_properties(text, vocab)  # "like a cobblestone street or a paved road?" (thirteenth version)
     if len(offered) == 1:
         return list(offered)
-    if offered and fallback is not None and not _asks_real(text) and _thing_beyond_touch(text) is None:
-        read = fallback(question, vocabulary)
-        if read in offered:
-            return [read]
+    may_fall_back = fallback is not None and not _asks_real(text) and _thing_beyond_touch(text) is None
+    if offered and may_fall_back and (read := fallback(question, vocabulary)) in offered:
+        return [read]
     if _WHOLE_OBJECT.search(text):
         return list(vocab)
-    if fallback is None or _asks_real(text) or _thing_beyond_touch(text) is not None:
+    if not may_fall_back:
         return None
     read = fallback(question, vocabulary)
     return [read] if read in vocab else None
