@@ -30,8 +30,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, matmul_seconds, md_table, publish, stamp
 
 
-def build(config_path: str, layers: int | None, device: str):
-    """The Stage II model of ``config_path`` at its LLM's published shape, random weights, on ``device``."""
+def build(config_path: str, layers: int | None, device: str, dtype: str = "bfloat16"):
+    """The Stage II model of ``config_path`` at its LLM's published shape, random weights, on ``device``, its frozen
+    weights in ``dtype``."""
     import torch
 
     from tacreasoner.model.configuration import TacReasonerConfig
@@ -54,16 +55,18 @@ def build(config_path: str, layers: int | None, device: str):
     model_config = TacReasonerConfig(text_config=text.to_dict(), encoder=encoder.to_dict(),
                                      tactile_token_id=new_ids[0], new_token_ids=new_ids)
     previous = torch.get_default_dtype()
-    torch.set_default_dtype(torch.bfloat16)  # built in bf16 where it lives: 7B in fp32 would need 30 GB first
+    torch.set_default_dtype(getattr(torch, dtype))  # bf16 unless asked: 7B in fp32 would need 30 GB first
     try:
         with torch.device(device):
             model = TacReasonerForCausalLM(model_config)
     finally:
         torch.set_default_dtype(previous)
+    if dtype == "float32":
+        model.float()  # the text config's own torch_dtype (bf16) sets the LLM's, whatever the default dtype
     if config.model.gradient_checkpointing:
         enable_activation_checkpointing(model.language_model)
     trained = configure_stage(model, 2, config.lora)
-    master_weights_in_fp32(trained, "bf16")
+    master_weights_in_fp32(trained, "bf16" if dtype == "bfloat16" else "no")
     return name, config, model, trained
 
 
@@ -114,9 +117,9 @@ def planned_memory_gb(config_path: str, micro_batch: int, seq_len: int, answer_f
     return plan.total / GB
 
 
-def measured_peak_tflops(device: str, size: int, repeats: int = 10) -> float:
-    """bf16 matmul TFLOP/s that this device reaches (size³ products, mean of ``repeats`` after 3 warm-ups)."""
-    times = matmul_seconds(size, "bfloat16", repeats, warmup=3, device=device)
+def measured_peak_tflops(device: str, size: int, repeats: int = 10, dtype: str = "bfloat16") -> float:
+    """Matmul TFLOP/s that this device reaches in ``dtype`` (size³ products, mean of ``repeats`` after 3 warm-ups)."""
+    times = matmul_seconds(size, dtype, repeats, warmup=3, device=device)
     return 2 * size ** 3 * len(times) / sum(times) / 1e12
 
 
@@ -154,7 +157,10 @@ def main() -> None:
     parser.add_argument("--warmup", type=int, default=3)
     parser.add_argument("--layers", type=int, default=None, help="fewer decoder layers (a CPU smoke test)")
     parser.add_argument("--peak-tflops", type=float, default=989.0, help="the GPU's dense bf16 peak")
-    parser.add_argument("--measure-peak", action="store_true", help="also time a large bf16 matmul here")
+    parser.add_argument("--measure-peak", action="store_true", help="also time a large matmul (in --dtype) here")
+    parser.add_argument("--dtype", choices=("bfloat16", "float32"), default="bfloat16",
+                        help="the step's compute and frozen weights; float32 for a CPU smoke test, where a CPU "
+                             "without native bf16 emulates it ~100x slower (a one-layer step took over 10 minutes)")
     parser.add_argument("--profile", action="store_true", help="also profile one step: where the time goes")
     parser.add_argument("--out", default=None, help="results directory (default benchmarks/results)")
     args = parser.parse_args()
@@ -166,7 +172,7 @@ def main() -> None:
     info = stamp()
     info["gpu"] = torch.cuda.get_device_name() if cuda else None
     started = time.perf_counter()
-    name, config, model, trained = build(args.config, args.layers, device)
+    name, config, model, trained = build(args.config, args.layers, device, args.dtype)
     build_s = time.perf_counter() - started
     params = [p for p in trained.parameters() if p.requires_grad]
     optimizer = torch.optim.AdamW(params, lr=config.stage2.lr, fused=cuda)
@@ -177,7 +183,7 @@ def main() -> None:
         torch.cuda.reset_peak_memory_stats()
 
     def one_step() -> torch.Tensor:
-        with torch.autocast(device, dtype=torch.bfloat16):
+        with torch.autocast(device, dtype=torch.bfloat16, enabled=args.dtype == "bfloat16"):
             loss = trained(**inputs, num_items_in_batch=labelled, loss_only=True).loss
         loss.backward()
         torch.nn.utils.clip_grad_norm_(params, config.stage2.max_grad_norm)
@@ -200,13 +206,14 @@ def main() -> None:
     reserved_gb = torch.cuda.max_memory_reserved() / 1e9 if cuda else None
     profile, busy_ms = profile_step(one_step, device) if args.profile else (None, None)
     peak_size = 8192 if cuda else 1024  # the large square product of the measured peak
-    measured = measured_peak_tflops(device, peak_size) if args.measure_peak else None
+    measured = measured_peak_tflops(device, peak_size, dtype=args.dtype) if args.measure_peak else None
     planned_gb = planned_memory_gb(args.config, args.micro_batch, args.seq_len, args.answer_fraction, args.layers)
     tokens_per_s = args.micro_batch * args.seq_len / step_s
     text = model.config.text_config
     achieved_tflops = model_flops_per_token(text, args.seq_len) * tokens_per_s / 1e12
     mfu = achieved_tflops / args.peak_tflops
     result = {**info, "model": name, "config": args.config, "micro_batch": args.micro_batch, "seq_len": args.seq_len,
+              "dtype": args.dtype,
               "answer_fraction": args.answer_fraction, "gradient_checkpointing": config.model.gradient_checkpointing,
               "lora": {"r": config.lora.r, "alpha": config.lora.alpha}, "trainable_parameters": sum(
                   p.numel() for p in params), "parameters": sum(p.numel() for p in model.parameters()),
@@ -233,7 +240,7 @@ def main() -> None:
            f"{args.answer_fraction:.0%} of positions labelled. MFU: 6 N + 12 L H S FLOPs per token over "
            f"{args.peak_tflops:g} TFLOP/s (module docstring).\n")
     if measured:
-        md += (f"\nMeasured peak: a {peak_size}³ bf16 matmul on this device ran at {measured:.1f} TFLOP/s "
+        md += (f"\nMeasured peak: a {peak_size}³ {args.dtype} matmul on this device ran at {measured:.1f} TFLOP/s "
                f"(mean of 10).\n")
     if reserved_gb is not None:
         md += (f"\nPeak memory: {peak_gb:.1f} GB allocated, {reserved_gb:.1f} GB reserved by PyTorch's allocator; "

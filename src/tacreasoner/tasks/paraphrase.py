@@ -17,9 +17,9 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache, lru_cache
 from pathlib import Path
 
 from tacreasoner.tasks.schema import ORDINALS, QAItem
@@ -110,7 +110,7 @@ def _parse(path: Path) -> dict[str, tuple[Paraphrase, ...]]:
     return {k: tuple(v) for k, v in out.items()}
 
 
-@lru_cache(maxsize=8)
+@cache  # a few sets, each parsed once (8 was fewer than the sets)
 def load_paraphrases(wording: str, directory: str | None = None) -> Mapping[str, tuple[Paraphrase, ...]]:
     """The ``train`` or a held-out set's wordings by template kind."""
     if wording not in WORDINGS:
@@ -121,20 +121,37 @@ def load_paraphrases(wording: str, directory: str | None = None) -> Mapping[str,
 def heldout_wording_of(question: str) -> str | None:
     """The id of the held-out wording (of any set) ``question`` is asked in (slots filled with anything), else
     None: how a test proves a training question never uses one."""
-    return _wording_of(question, [p.template for wording in HELDOUT_WORDINGS
-                                  for kind in load_paraphrases(wording).values() for p in kind])
+    return _wording_of(question, _heldout_patterns())
 
 
 def trained_wording_of(question: str) -> str | None:
     """The id of the benchmark template or training wording ``question`` is asked in (slots filled with anything),
     else None: a question the model was trained to read in these words."""
-    return _wording_of(question, [t for kind in load_templates().values() for t in kind] +
-                       [p.template for kind in load_paraphrases("train").values() for p in kind])
+    return _wording_of(question, _trained_patterns())
 
 
-def _wording_of(question: str, templates: Sequence[Template]) -> str | None:
-    """The id of the first of ``templates`` whose text, slots filled, is ``question``."""
-    return next((t.id for t in templates if _pattern(t.text).fullmatch(question.strip())), None)
+@lru_cache(maxsize=1)
+def _heldout_patterns() -> tuple[tuple[str, re.Pattern[str]], ...]:
+    """Every held-out set's wordings, compiled once per process: asked per question over ~1000 wordings, parsing
+    and compiling them on each call cost 1.5 s a question (the check of every training question took 23 min)."""
+    return _compiled(p.template for wording in HELDOUT_WORDINGS for kind in load_paraphrases(wording).values()
+                     for p in kind)
+
+
+@lru_cache(maxsize=1)
+def _trained_patterns() -> tuple[tuple[str, re.Pattern[str]], ...]:
+    return _compiled([t for kind in load_templates().values() for t in kind] +
+                     [p.template for kind in load_paraphrases("train").values() for p in kind])
+
+
+def _compiled(templates: Iterable[Template]) -> tuple[tuple[str, re.Pattern[str]], ...]:
+    return tuple((t.id, _pattern(t.text)) for t in templates)
+
+
+def _wording_of(question: str, patterns: Sequence[tuple[str, re.Pattern[str]]]) -> str | None:
+    """The id of the first of ``patterns`` (template id, its text with slots as patterns) that is ``question``."""
+    question = question.strip()
+    return next((wording for wording, pattern in patterns if pattern.fullmatch(question)), None)
 
 
 _WORDS = r"[a-z]+(?: [a-z]+)?"
