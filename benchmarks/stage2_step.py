@@ -30,7 +30,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, matmul_seconds, md_table, publish, stamp
 
 
-def build(config_path: str, layers: int | None, device: str, dtype: str = "bfloat16"):
+def build(config_path: str, layers: int | None, device: str, dtype: str = "bfloat16", vocab_size: int | None = None):
     """The Stage II model of ``config_path`` at its LLM's published shape, random weights, on ``device``, its frozen
     weights in ``dtype``."""
     import torch
@@ -47,7 +47,8 @@ def build(config_path: str, layers: int | None, device: str, dtype: str = "bfloa
     name, text = resolve_llm(config.model.llm)
     if layers is not None:
         fields = {k: v for k, v in text.to_dict().items() if k not in ("layer_types", "max_window_layers")}
-        text = type(text)(**{**fields, "num_hidden_layers": layers})
+        shrunk = {"num_hidden_layers": layers, **({"vocab_size": vocab_size} if vocab_size else {})}
+        text = type(text)(**{**fields, **shrunk})
         name = f"{name} ({layers} layers)"
     vocab = int(text.vocab_size)
     new_ids = list(range(vocab - 5, vocab))  # the 5 tokens build_model adds: rows Stage II trains too
@@ -156,6 +157,9 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=10)
     parser.add_argument("--warmup", type=int, default=3)
     parser.add_argument("--layers", type=int, default=None, help="fewer decoder layers (a CPU smoke test)")
+    parser.add_argument("--vocab-size", type=int, default=None,
+                        help="with --layers, a smaller vocabulary too (a CPU smoke test: 7B's 152k rows, in and "
+                             "out, are 4 GB in fp32)")
     parser.add_argument("--peak-tflops", type=float, default=989.0, help="the GPU's dense bf16 peak")
     parser.add_argument("--measure-peak", action="store_true", help="also time a large matmul (in --dtype) here")
     parser.add_argument("--dtype", choices=("bfloat16", "float32"), default="bfloat16",
@@ -164,6 +168,8 @@ def main() -> None:
     parser.add_argument("--profile", action="store_true", help="also profile one step: where the time goes")
     parser.add_argument("--out", default=None, help="results directory (default benchmarks/results)")
     args = parser.parse_args()
+    if args.vocab_size is not None and args.layers is None:
+        parser.error("--vocab-size is for a cut-down model: give --layers too (a full-size step keeps its vocabulary)")
 
     import torch
 
@@ -172,7 +178,7 @@ def main() -> None:
     info = stamp()
     info["gpu"] = torch.cuda.get_device_name() if cuda else None
     started = time.perf_counter()
-    name, config, model, trained = build(args.config, args.layers, device, args.dtype)
+    name, config, model, trained = build(args.config, args.layers, device, args.dtype, args.vocab_size)
     build_s = time.perf_counter() - started
     params = [p for p in trained.parameters() if p.requires_grad]
     optimizer = torch.optim.AdamW(params, lr=config.stage2.lr, fused=cuda)

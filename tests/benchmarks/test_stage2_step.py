@@ -29,13 +29,15 @@ def test_one_layer_step_on_the_cpu_writes_profile_peak_and_a_file_per_micro_batc
     out = tmp_path / "results"
     done = subprocess.run([sys.executable, str(BENCHMARKS / "stage2_step.py"), "--config", str(CONFIG), "--layers",
                            "1", "--seq-len", "16", "--micro-batch", "2", "--steps", "1", "--warmup", "0",
-                           "--measure-peak", "--profile", "--dtype", "float32", "--out", str(out)],
+                           "--vocab-size", "4096", "--measure-peak", "--profile", "--dtype", "float32",
+                           "--out", str(out)],
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     files = sorted(p.name for p in out.glob("*.json"))
     assert files == ["stage2_step_qwen25-7b_1_layers_mb2.json"]  # named by micro-batch: mb 4 and 8 both kept
     result = json.loads((out / files[0]).read_text())
     assert result["micro_batch"] == 2 and result["tokens_per_s"] > 0 and result["dtype"] == "float32"
+    assert result["parameters"] < 0.3e9  # one 7B layer (0.23 B) and 4096 rows, not 152k (1.1 B)
     assert result["measured_peak_tflops"] > 0
     assert result["mfu_of_measured_peak"] == pytest.approx(
         result["achieved_tflops"] / result["measured_peak_tflops"], rel=0.05)
