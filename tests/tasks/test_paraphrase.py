@@ -17,6 +17,7 @@ from tacreasoner.tasks.paraphrase import (
     normalise,
     reword,
     reword_items,
+    trained_wording_of,
 )
 from tacreasoner.tasks.scoring import score_item
 from tacreasoner.tasks.templating import TemplateError, load_templates
@@ -105,6 +106,27 @@ def test_training_examples_never_hold_a_heldout_wording(bench: Path) -> None:
     assert len({e.question for e in mixed}) > 1.5 * len({e.question for e in plain})
     stage1 = load_examples(1, bench, paraphrases=True)
     assert all(heldout_wording_of(e.question) is None for e in stage1)
+
+
+def test_wording_checks_read_the_sets_once_not_per_question(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every training question is checked against ~1000 held-out wordings: re-reading the 18 sets per question
+    (a cache of 8 sets) made that check 1.5 s a question and one test 23 minutes."""
+    import re
+
+    import tacreasoner.tasks.paraphrase as paraphrase
+
+    def filled(text: str) -> str:
+        return re.sub(r"\{[a-z_]+\}", "hardness", text)
+
+    heldout = filled(next(iter(load_paraphrases("heldout18").values()))[0].template.text)
+    trained = filled(next(iter(load_templates().values()))[0].text)
+    assert heldout_wording_of(heldout) is not None and trained_wording_of(trained) is not None  # read, compiled
+    parsed: list[Path] = []
+    monkeypatch.setattr(paraphrase, "_parse", lambda path: parsed.append(path) or {})
+    for _ in range(3):
+        assert heldout_wording_of(heldout) is not None and heldout_wording_of(trained) is None
+        assert trained_wording_of(trained) is not None and trained_wording_of(heldout) is None
+    assert parsed == []
 
 
 def test_reword_bench_writes_evaluation_splits_only(bench: Path, tmp_path: Path) -> None:
