@@ -240,8 +240,10 @@ def test_the_clip_reader_trains_in_stage_two_only() -> None:
     assert not any("readout" in n for n in names)  # the read-out is a fitted buffer
 
 
+FSDP2_CASES = (("untied", 2), ("tied", 2), ("tied", 1), ("untied", 1))
+
 FSDP2_PREPARE = """
-import os, sys, types
+import sys, types
 import torch.distributed as dist
 dist.init_process_group("gloo", rank=0, world_size=1)
 from accelerate.utils import FullyShardedDataParallelPlugin
@@ -249,30 +251,34 @@ from accelerate.utils.fsdp_utils import fsdp2_prepare_model
 from torch.distributed.fsdp import FSDPModule
 from tacreasoner.model.stages import LoraSettings, configure_stage
 from tests.model.tinymodel import TACTILE_ID, batch, prompt, tiny_model, videos
-model = tiny_model(text={"tie_word_embeddings": sys.argv[1] == "tied"})
-model.config.new_token_ids = [296, 297]
-trained = configure_stage(model, int(sys.argv[2]), LoraSettings(r=4, alpha=8))
-plugin = FullyShardedDataParallelPlugin(fsdp_version=2, auto_wrap_policy="transformer_based_wrap",
-                                        transformer_cls_names_to_wrap=["Qwen2DecoderLayer"])
-acc = types.SimpleNamespace(state=types.SimpleNamespace(fsdp_plugin=plugin), torch_device_mesh=None, device="cpu",
-                            is_main_process=True, mixed_precision="no")
-sharded = fsdp2_prepare_model(acc, trained)
-inputs = batch([prompt(2), prompt(1, question=[296, 11])])
-labels = inputs["input_ids"].masked_fill(inputs["input_ids"] == TACTILE_ID, -100)
-sharded(**inputs, pixel_values=videos(3), labels=labels).loss.backward()
-rows = [p.grad is not None for n, p in sharded.named_parameters() if n.endswith(".rows")]
-print("sharded" if isinstance(sharded, FSDPModule) and all(rows) else "not sharded")
+for case in sys.argv[1:]:  # "tied:2": a fresh model per case, one process for all (imports cost the most)
+    embeddings, stage = case.split(":")
+    model = tiny_model(text={"tie_word_embeddings": embeddings == "tied"})
+    model.config.new_token_ids = [296, 297]
+    trained = configure_stage(model, int(stage), LoraSettings(r=4, alpha=8))
+    plugin = FullyShardedDataParallelPlugin(fsdp_version=2, auto_wrap_policy="transformer_based_wrap",
+                                            transformer_cls_names_to_wrap=["Qwen2DecoderLayer"])
+    acc = types.SimpleNamespace(state=types.SimpleNamespace(fsdp_plugin=plugin), torch_device_mesh=None,
+                                device="cpu", is_main_process=True, mixed_precision="no")
+    sharded = fsdp2_prepare_model(acc, trained)
+    inputs = batch([prompt(2), prompt(1, question=[296, 11])])
+    labels = inputs["input_ids"].masked_fill(inputs["input_ids"] == TACTILE_ID, -100)
+    sharded(**inputs, pixel_values=videos(3), labels=labels).loss.backward()
+    rows = [p.grad is not None for n, p in sharded.named_parameters() if n.endswith(".rows")]
+    print(case, "sharded" if isinstance(sharded, FSDPModule) and rows and all(rows) else "not sharded", flush=True)
 """
 
 
-@pytest.mark.parametrize(("embeddings", "stage"), [("untied", 2), ("tied", 2), ("tied", 1), ("untied", 1)])
-def test_accelerate_fsdp2_shards_and_backpropagates_both_stages_tied_or_not(embeddings, stage, tmp_path,
-                                                                            free_port) -> None:
+def test_accelerate_fsdp2_shards_and_backpropagates_both_stages_tied_or_not(tmp_path, free_port) -> None:
     """The new tokens' rows are plain parameters in both stages (model/token_rows.py), so accelerate's FSDP2 shards
     them and reaches them, tied or not. (Until 2026-11-28 Stage II used PEFT's trainable tokens, whose delta shared
-    by tied embeddings accelerate 1.15 sharded twice: "Invariant encountered"; the trainer refused that case.)"""
+    by tied embeddings accelerate 1.15 sharded twice: "Invariant encountered"; the trainer refused that case.)
+    The four cases run in one process, each on a fresh model."""
     env = {**os.environ, "MASTER_ADDR": "127.0.0.1", "MASTER_PORT": str(free_port()),
            "PYTHONPATH": os.pathsep.join([str(Path(__file__).parents[2]), os.environ.get("PYTHONPATH", "")])}
-    done = subprocess.run([sys.executable, "-c", FSDP2_PREPARE, embeddings, str(stage)], capture_output=True, text=True,
-                          env=env, cwd=tmp_path, timeout=300)
-    assert done.returncode == 0 and done.stdout.strip().splitlines()[-1] == "sharded", done.stderr[-2000:]
+    cases = [f"{embeddings}:{stage}" for embeddings, stage in FSDP2_CASES]
+    done = subprocess.run([sys.executable, "-c", FSDP2_PREPARE, *cases], capture_output=True, text=True,
+                          env=env, cwd=tmp_path, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().splitlines()[-len(cases):] == [f"{case} sharded" for case in cases], (
+        done.stdout[-2000:], done.stderr[-2000:])

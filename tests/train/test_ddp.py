@@ -62,6 +62,7 @@ def test_the_defaults_prompt_dependent_parts_train_under_ddp_in_both_stages(inpu
     encoder = {**ENCODER, "cross_video": 3, "cross_video_names": True, "clip_reader": True}
     batch = {"steps": STEPS, "global_batch": 4}
     config = tiny_config(inputs, tmp_path / "run", model={"encoder": encoder}, stage1=batch,
+                         data={"video_cache": str(tmp_path / "video_cache")},  # decoded once, not per process
                          stage2=batch, lora={"r": 8, "alpha": 16, "dropout": 0.0},
                          runtime={"threads": 1, "log_with": "none", "progress": False, "mixed_precision": "no"})
     (tmp_path / "run").mkdir()
@@ -155,6 +156,10 @@ def test_a_killed_two_process_run_resumes_to_the_one_process_result_and_saves_a_
     for name, batch in (("two", {"global_batch": 4}), ("one", {"batch_size": 4})):
         settings = {"steps": steps, "lr": 3e-3, "projector_lr": 3e-3, **batch}
         runs[name] = tiny_config(inputs, tmp_path / name, model={"llm": str(llm)}, **{f"stage{stage}": settings},
+                                 # one disk cache of decoded clips for all 3 runs: the 2-process runs' main process
+                                 # fills it first and the other reads it, as on GPUs; the weights compared below
+                                 # then also show that cached clips train as freshly decoded ones
+                                 data={"video_cache": str(tmp_path / "video_cache")},
                                  **{f"stage{other}": {"skip": True}}, lora={"r": 8, "alpha": 16, "dropout": 0.0},
                                  runtime={"threads": 1, "log_with": "none", "progress": False, "log_every": 1,
                                           "checkpoint_every": 1, "mixed_precision": "no",
