@@ -98,9 +98,14 @@ def main() -> None:
     ap.add_argument("--trained-on", default="Mini clips only", help="what the models trained on, for the page")
     ap.add_argument("--preparations", nargs="+", default=["as_is", "match"], choices=PREPARATIONS,
                     help="which to answer the held-out style with (on test: the chosen one, once)")
+    ap.add_argument("--no-plain-seen", action="store_true", help="answer the seen style only under the preparations "
+                    "that change it (one answer pass less per seed, where its plain figure is not needed)")
     ap.add_argument("--gel-reference", type=Path, help="for match+gel: a JSON {mean, std} of the training sensor's "
                     "gel at rest (experiments/2026-11-30_sensor_colour/gel_reference.py writes it from train clips)")
     args = ap.parse_args()
+    if args.no_plain_seen and set(args.preparations) - set(CHANGES_SEEN):
+        ap.error(f"--no-plain-seen: the gap of {', '.join(set(args.preparations) - set(CHANGES_SEEN))} is to the "
+                 "plain seen figure")
     gel = None
     if args.gel_reference:
         measured = json.loads(args.gel_reference.read_text())
@@ -109,7 +114,8 @@ def main() -> None:
     seen, held = args.split_suffix, f"{args.split_suffix}_heldout_sensor"
     results: dict[str, dict] = {}
     for seed, model in enumerate(args.models):
-        row = {"seen": evaluate(model, args.bench, seen, args.out / f"seed{seed}" / seen, args.dtype)}
+        row = {} if args.no_plain_seen else {
+            "seen": evaluate(model, args.bench, seen, args.out / f"seed{seed}" / seen, args.dtype)}
         for prep in args.preparations:
             prepared = with_preparation(model, prep, args.out / f"seed{seed}" / f"model_{prep}", gel)
             row[prep] = evaluate(prepared, args.bench, held, args.out / f"seed{seed}" / f"{held}_{prep}", args.dtype)
@@ -117,8 +123,8 @@ def main() -> None:
                 row[f"seen_{prep}"] = evaluate(prepared, args.bench, seen, args.out / f"seed{seed}" / f"{seen}_{prep}",
                                                args.dtype)
         results[f"seed{seed}"] = row
-        print(f"seed {seed}: {seen} {100 * row['seen']['average']:.1f}, " + ", ".join(
-            f"{held} {p} {100 * row[p]['average']:.1f}" for p in args.preparations), flush=True)
+        print(f"seed {seed}: " + ", ".join(f"{key} {100 * value['average']:.1f}" for key, value in row.items()),
+              flush=True)
 
     def stat(key: str, task: str | None = None) -> tuple[float, float]:
         values = [100 * (r[key]["average"] if task is None else r[key]["tasks"][task]) for r in results.values()]
@@ -131,14 +137,14 @@ def main() -> None:
             "seen_split": seen, "heldout_split": held, "heldout_sensor": bench.get("heldout_sensor"),
             "dtype": args.dtype, "trained_on": args.trained_on, "results": results, "gel_reference": gel,
             "match_adopted_by_rule": adopted if seen == "val" and both else None}
-    tasks = list(next(iter(results.values()))["seen"]["tasks"])
+    tasks = list(next(iter(next(iter(results.values())).values()))["tasks"])
     md = header_md(f"A sensor style never seen in training: {seen} (Mini) against {held} "
                    f"({bench.get('heldout_sensor')})", info)
     md += (f"Models: {', '.join(f'`{portable(str(m))}`' for m in args.models)} (the quickstart recipe, one per seed, "
            f"trained on {args.trained_on}); weights {args.dtype}; strict answer extraction. The same objects in both "
            f"styles. {rule_text(args.preparations, held, seen, len(results))}\n\n")
     rows = []
-    shown = [(f"{seen} (Mini, seen)", "seen")]
+    shown = [] if args.no_plain_seen else [(f"{seen} (Mini, seen)", "seen")]
     for p in args.preparations:
         shown += [(f"{seen} (Mini, seen), {p}", f"seen_{p}")] if p in CHANGES_SEEN else []
         shown.append((f"{held}, {p}", p))

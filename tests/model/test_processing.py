@@ -163,6 +163,29 @@ def test_the_vocabulary_is_saved_only_when_known(processor, tmp_path) -> None:
     assert model_vocabulary(tmp_path) == "vtv150k" and model_vocabulary(tmp_path / "missing") == "physiclear"
 
 
+def test_a_recorded_gel_reference_maps_what_the_saved_processor_reads(processor, tmp_path) -> None:
+    from tacreasoner.model.processing import record_gel_reference
+    from tacreasoner.model.video_processing import VideoProcessingConfig
+
+    keep = TacReasonerProcessor(processor.tokenizer, VideoProcessingConfig(num_frames=4, image_size=(32, 32),
+                                                                           background="keep"))
+    keep.save_pretrained(tmp_path)
+    before = keep.prompt("Is <tactile> hard?", [_clip(3)])["pixel_values"]
+    reference = {"mean": [0.2, 0.4, 0.4], "std": [0.1, 0.05, 0.1]}
+    record_gel_reference(tmp_path, reference)
+    loaded = TacReasonerProcessor.from_pretrained(tmp_path)
+    assert loaded.video_config.gel_reference == {k: tuple(v) for k, v in reference.items()}
+    assert loaded.to_dict()["tokens_per_video"] == keep.to_dict()["tokens_per_video"]  # the rest untouched
+    after = loaded.prompt("Is <tactile> hard?", [_clip(3)])["pixel_values"]
+    assert after.shape == before.shape and not torch.allclose(after, before), "the map changes what is read"
+    record_gel_reference(tmp_path, None)  # removed: frames as trained again
+    assert torch.equal(TacReasonerProcessor.from_pretrained(tmp_path).prompt(
+        "Is <tactile> hard?", [_clip(3)])["pixel_values"], before)
+    processor.save_pretrained(subtracted := tmp_path / "subtract")  # a subtracted frame has no gel colours
+    with pytest.raises(ValueError, match=r"processor_config\.json: cannot record gel_reference .*needs background"):
+        record_gel_reference(subtracted, reference)
+
+
 def _model_for(processor: TacReasonerProcessor) -> TacReasonerForCausalLM:
     torch.manual_seed(0)
     config = TacReasonerConfig(text_config={**TEXT_CONFIG, "vocab_size": len(processor.tokenizer)},

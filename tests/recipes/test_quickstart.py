@@ -39,6 +39,7 @@ def test_quickstart_settings_ship_with_the_package_and_name_the_recommended_mode
     assert quickstart_config(given, 0).model.llm == str(tmp_path / "my_llm")
     assert settings.eval_dtype == "auto"  # bf16 answering only where the hardware has it (chosen on val)
     assert settings.answers == "auto"  # how ask/serve/demo answer the published model (chosen on val)
+    assert settings.gel_reference == "train" and "gel_reference" not in settings.encoder  # chosen on val
 
 
 def test_quickstart_stages_follow_the_data_flow(tmp_path: Path) -> None:
@@ -57,6 +58,12 @@ def test_a_broken_settings_file_is_named(tmp_path: Path) -> None:
         QuickstartSettings.load(broken)
     broken.write_text(QUICKSTART_SETTINGS.read_text().replace("dtype: auto", "dtype: fp8"))  # one bad value
     with pytest.raises(ValueError, match=r"not a quickstart settings file \(dtype must be one of .*got 'fp8'\)"):
+        QuickstartSettings.load(broken)
+    broken.write_text(QUICKSTART_SETTINGS.read_text().replace("gel_reference: train", "gel_reference: val"))
+    with pytest.raises(ValueError, match=r"gel_reference must be one of train, none, got 'val'"):
+        QuickstartSettings.load(broken)
+    broken.write_text(QUICKSTART_SETTINGS.read_text().replace("background: keep", "background: subtract"))
+    with pytest.raises(ValueError, match=r"gel_reference 'train' needs background 'keep'"):
         QuickstartSettings.load(broken)
 
 
@@ -182,3 +189,52 @@ def test_reports_name_the_cpu_model_not_just_the_architecture() -> None:
     info = "processor\t: 0\nvendor_id\t: GenuineIntel\nmodel name\t: Intel(R) Xeon(R) Processor @ 2.50GHz\n"
     assert cpu_name(info) == "Intel(R) Xeon(R) Processor @ 2.50GHz"
     assert cpu_name("processor\t: 0\n")  # no model name line: platform's answer, never empty
+
+
+def test_the_gel_reference_is_measured_on_train_clips_of_the_trained_sensor_only(trained_run) -> None:
+    from tacreasoner.data.readers import read_sim_dataset
+    from tacreasoner.model.video_processing import measure_gel_reference
+    from tacreasoner.recipes.quickstart_parts import train_gel_reference
+
+    root, _ = trained_run
+    info = json.loads((root / "bench" / "bench.json").read_text())
+    assert info["heldout_sensor"] == "digit" and {"val", "test"} <= set(info["splits"].values())
+    paths = QuickstartPaths(root / "gel")
+    shutil.copytree(root / "bench", paths.bench)
+    reference, line = train_gel_reference(paths, max_clips=6)
+    saved = json.loads(paths.gel_reference.read_text())
+    clips = {c.clip_id: c for c in read_sim_dataset(info["data"])}
+    used = [clips[c] for c in saved["clips"]]
+    assert len(used) == 6 and saved["split"] == "train" and saved["sensors"] == ["mini"]
+    assert all(info["splits"][c.object_id] == "train" and c.sensor == "mini" for c in used)
+    assert reference == measure_gel_reference(used) and "6 train clips (mini)" in line
+    everything = measure_gel_reference(list(clips.values())[:12])
+    assert everything != reference, "the check above could tell other clips apart"
+    assert train_gel_reference(paths)[0] == reference, "kept, not measured again"
+
+
+def test_the_quickstart_answers_with_its_gel_reference_and_publishes_it(trained_run, tmp_path: Path) -> None:
+    from tacreasoner.model.processing import TacReasonerProcessor
+
+    root, _ = trained_run
+    paths = QuickstartPaths(tmp_path / "qs")
+    shutil.copytree(root / "bench", paths.bench)
+    model = shutil.copytree(QuickstartPaths(root).train(0) / "stage2" / "model", tmp_path / "model")
+    config_path = model / "processor_config.json"
+    config = json.loads(config_path.read_text())
+    config["video"]["background"] = "keep"  # the quickstart's frames keep their gel colours
+    config_path.write_text(json.dumps(config))
+    report = evaluate_and_report(paths, {0: model}, {}, gel_reference="train")
+    saved = json.loads(paths.gel_reference.read_text())  # measured on the run's train clips (test above)
+    reference = {k: saved[k] for k in ("mean", "std")}
+    for folder in (model, paths.model):
+        assert TacReasonerProcessor.from_pretrained(folder).video_config.to_dict()["gel_reference"] == reference
+    assert "colours mapped to the gel at rest of the run's train clips" in report.path.read_text()
+    assert any(line.startswith("colour map (video.gel_reference)") for line in report.summary_lines)
+    answered = json.loads((paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines()[0])
+    assert " gel_reference=" in answered["answered_by"]
+    evaluate_and_report(paths, {0: model}, {}, gel_reference="none")  # switched off: removed, answers redone
+    assert "gel_reference" not in json.loads(config_path.read_text())["video"]
+    redone = json.loads((paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines()[0])
+    assert " gel_reference=" not in redone["answered_by"]
+

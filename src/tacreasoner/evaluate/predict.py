@@ -104,7 +104,18 @@ def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[
         mode += " (a person's comparisons and real-or-fake questions asked again in the benchmark's words)"
     if answers in EMBEDDING_MODES:  # since 2026-11-29 (the hybrid reader), likewise
         mode += " (a sentence embedding reads what the property words do not)"
-    return f"model={model} [{stamp}]; bench={Path(bench_dir).resolve()}{_bench_version(Path(bench_dir))}{cast}{mode}"
+    return (f"model={model} [{stamp}]{_gel_mark(model)}; bench={Path(bench_dir).resolve()}"
+            f"{_bench_version(Path(bench_dir))}{cast}{mode}")
+
+
+def _gel_mark(model: Path) -> str:
+    """The colour map a model folder answers with (``video.gel_reference``, recorded after training and changeable
+    without touching the weights), so answers made with and without it are never taken for each other's."""
+    try:
+        reference = json.loads((model / "processor_config.json").read_text(encoding="utf-8"))["video"]["gel_reference"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return ""
+    return f" gel_reference={reference.get('mean')}/{reference.get('std')}" if isinstance(reference, dict) else ""
 
 
 def _bench_version(bench_dir: Path) -> str:

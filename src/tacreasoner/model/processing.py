@@ -39,7 +39,7 @@ from tacreasoner.model.video_processing import (
 from tacreasoner.tasks.schema import PLACEHOLDER
 
 __all__ = ["IGNORE_INDEX", "OPTION_MASK_OFFSET", "PROCESSOR_CONFIG_NAME", "TacReasonerProcessor", "option_spans",
-           "record_answers"]
+           "record_answers", "record_gel_reference"]
 
 IGNORE_INDEX = -100
 PROCESSOR_CONFIG_NAME = "processor_config.json"
@@ -445,3 +445,20 @@ def record_answers(model_dir: str | os.PathLike[str], answers: str) -> None:
     data = read_json_object(path, "a processor config written by TacReasonerProcessor.save_pretrained")
     if data.get("answers") != answers:
         atomic_write_text(path, json.dumps({**data, "answers": answers}, indent=2) + "\n")
+
+
+def record_gel_reference(model_dir: str | os.PathLike[str], reference: dict[str, Any] | None) -> None:
+    """Record in a saved model folder the training sensor's gel at rest (``processor_config.json``'s
+    ``video.gel_reference``; None removes it), so every clip it answers is colour-mapped to it; the weights are
+    untouched. Training read its frames without the map: it is an answering-time preparation."""
+    path = Path(model_dir) / PROCESSOR_CONFIG_NAME
+    data = read_json_object(path, "a processor config written by TacReasonerProcessor.save_pretrained")
+    video = {k: v for k, v in dict(data.get("video") or {}).items() if k != "gel_reference"}
+    if reference is not None:
+        video["gel_reference"] = {k: [float(v) for v in reference[k]] for k in ("mean", "std")}
+    try:
+        video = VideoProcessingConfig.from_dict(video).to_dict()
+    except (TypeError, ValueError, KeyError) as exc:
+        raise ValueError(f"{path}: cannot record gel_reference ({exc})") from None
+    if data.get("video") != video:
+        atomic_write_text(path, json.dumps({**data, "video": video}, indent=2) + "\n")

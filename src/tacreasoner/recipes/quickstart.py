@@ -18,13 +18,16 @@ from typing import Any
 from tacreasoner.recipes.quickstart_parts import QuickstartPaths
 from tacreasoner.yamlfile import read_yaml
 
-__all__ = ["QUICKSTART_DIR", "QUICKSTART_SETTINGS", "QuickstartPaths", "QuickstartRun", "QuickstartSettings", "Stage",
+__all__ = ["GEL_REFERENCES", "QUICKSTART_DIR", "QUICKSTART_SETTINGS", "QuickstartPaths", "QuickstartRun",
+           "QuickstartSettings", "Stage",
            "quickstart_config", "quickstart_stages", "run_quickstart", "run_stages"]
 
 QUICKSTART_DIR = Path("runs/quickstart")
 """Where the quickstart writes by default (and where ``ask``/``serve``/``demo`` look for its model)."""
 QUICKSTART_SETTINGS = Path(__file__).with_name("quickstart.yaml")
 """The quickstart's own settings (shipped with the package)."""
+GEL_REFERENCES = ("train", "none")
+"""``quickstart.yaml``'s ``encoder.gel_reference``: measured on the run's train clips, or no colour map."""
 
 Say = Callable[[str], None]
 Progress = Callable[[str], Callable[[int, int], None]]
@@ -45,6 +48,9 @@ class QuickstartSettings:
     eval_dtype: str = "float32"
     answers: str = "direct"
     """How ``ask``/``serve``/``demo`` answer the published model by default (recorded in its folder)."""
+    gel_reference: str = "none"
+    """``train``: after training, each model records its sensor's gel at rest measured on train clips
+    (``video.gel_reference``), so the clips it answers are colour-mapped to it; ``none``: frames as trained."""
 
     @classmethod
     def load(cls, path: Path = QUICKSTART_SETTINGS) -> QuickstartSettings:
@@ -53,8 +59,15 @@ class QuickstartSettings:
         data, _ = read_yaml(path)
         try:
             sim, train, evaluate = data["simulate"], data["train"], data["evaluate"]
+            encoder = dict(data["encoder"])
+            gel = str(encoder.pop("gel_reference", "none"))
+            if gel not in GEL_REFERENCES:
+                raise ValueError(f"encoder.gel_reference must be one of {', '.join(GEL_REFERENCES)}, got {gel!r}")
+            if gel == "train" and encoder.get("background", "keep") != "keep":
+                raise ValueError("encoder.gel_reference 'train' needs background 'keep' (a subtracted frame has no "
+                                 "gel colours left to map)")
             return cls(objects=int(sim["objects"]), repeats=int(sim["repeats"]), sensors=list(sim["sensors"]),
-                       encoder=dict(data["encoder"]), train_config=str(train["config"]), llm=str(train["llm"]),
+                       encoder=encoder, gel_reference=gel, train_config=str(train["config"]), llm=str(train["llm"]),
                        eval_batch_size=int(evaluate["batch_size"]), max_new_tokens=int(evaluate["max_new_tokens"]),
                        eval_dtype=str(check_dtype(evaluate.get("dtype", "float32"))),
                        answers=check_answers(str((data.get("serve") or {}).get("answers", "direct"))))
@@ -159,7 +172,8 @@ def quickstart_stages(run: QuickstartRun, settings: QuickstartSettings | None = 
 
         report = evaluate_and_report(paths, trained, timings, batch_size=settings.eval_batch_size,
                                      max_new_tokens=settings.max_new_tokens, dtype=settings.eval_dtype,
-                                     progress=progress, answers=settings.answers)
+                                     progress=progress, answers=settings.answers,
+                                     gel_reference=settings.gel_reference)
         return [*report.summary_lines, f"report: {report.path}"]
 
     def ask() -> list[str]:

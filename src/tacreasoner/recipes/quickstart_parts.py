@@ -9,7 +9,11 @@ from typing import Any
 
 from tacreasoner.recipes.run_folder import RunFolder
 
-__all__ = ["QuickstartPaths", "baselines", "bench", "encoder", "llm", "preview", "simulate"]
+__all__ = ["GEL_REFERENCE_CLIPS", "QuickstartPaths", "baselines", "bench", "encoder", "llm", "preview", "simulate",
+           "train_gel_reference"]
+
+GEL_REFERENCE_CLIPS = 100
+"""Train clips the gel at rest is measured on: it barely differs between clips of one sensor."""
 
 
 @dataclass(frozen=True)
@@ -36,6 +40,10 @@ class QuickstartPaths(RunFolder):
     @property
     def model(self) -> Path:
         return self.root / "model"
+
+    @property
+    def gel_reference(self) -> Path:
+        return self.root / "gel_reference.json"
 
 
 def simulate(paths: QuickstartPaths, objects: int, repeats: int, sensors: list[str], seed: int,
@@ -102,3 +110,32 @@ def encoder(paths: QuickstartPaths, settings: dict[str, Any]) -> list[str]:
     _, config, video = write_imagenet_backbone(paths.encoder, settings)
     return [f"EfficientNet-Lite0 (ImageNet) cut at {config.backbone_layer}, {video.num_frames} {video.sampling} "
             f"frames of {video.image_size[0]}x{video.image_size[1]}: no training, no clip read"]
+
+
+def train_gel_reference(paths: QuickstartPaths, max_clips: int = GEL_REFERENCE_CLIPS) -> tuple[dict[str, Any], str]:
+    """The trained sensor's gel at rest (``video.gel_reference``), measured on the benchmark's train objects in
+    the styles it trains on (a held-out style's clips, val and test clips are never read); kept in
+    ``gel_reference.json`` beside the clips it came from. Returns the reference and a line saying where from."""
+    import json
+
+    if paths.gel_reference.is_file():
+        saved = json.loads(paths.gel_reference.read_text(encoding="utf-8"))
+        return {k: saved[k] for k in ("mean", "std")}, f"already there: {paths.gel_reference}"
+    from tacreasoner.data.readers import read_sim_dataset
+    from tacreasoner.jsonl import atomic_write_text
+    from tacreasoner.model.video_processing import measure_gel_reference
+
+    info = json.loads((paths.bench / "bench.json").read_text(encoding="utf-8"))
+    data = Path(info["data"])  # the clips the benchmark's splits name
+    trained = sorted(set(info.get("sensors") or []) - {info.get("heldout_sensor")})
+    clips = [c for c in read_sim_dataset(data)
+             if info["splits"].get(c.object_id) == "train" and (not trained or c.sensor in trained)][:max_clips]
+    if not clips:
+        raise ValueError(f"{paths.bench / 'bench.json'}: no train clip of the trained sensor(s) in {data} to "
+                         "measure the gel at rest on")
+    reference = measure_gel_reference(clips)
+    atomic_write_text(paths.gel_reference, json.dumps(
+        {**reference, "split": "train", "sensors": sorted({c.sensor for c in clips}),
+         "clips": [c.clip_id for c in clips]}, indent=2) + "\n")
+    return reference, (f"gel at rest of {len(clips)} train clips ({', '.join(sorted({c.sensor for c in clips}))}): "
+                       f"mean {reference['mean']}, std {reference['std']} → {paths.gel_reference}")

@@ -127,10 +127,23 @@ def _precision_note(models: dict[int, Path]) -> str:
 def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings: dict[str, Any], *,
                         batch_size: int = 48, max_new_tokens: int = 64, dtype: str | None = None,
                         progress: Callable[[str], Callable[[int, int], None]] | None = None,
-                        answers: str = "direct") -> QuickstartReport:
+                        answers: str = "direct", gel_reference: str = "none") -> QuickstartReport:
     """Evaluate every seed's model on the test split(s), write ``report.md`` + ``report.json`` and publish seed 0's
-    model with ``answers`` recorded as how ``ask``/``serve``/``demo`` answer it by default."""
+    model with ``answers`` recorded as how ``ask``/``serve``/``demo`` answer it by default. ``gel_reference``
+    ``train``: each model first records the gel at rest of the run's train clips and answers colour-mapped to it
+    (``none``: a recorded one is removed)."""
     from datetime import datetime, timezone
+
+    from tacreasoner.model.processing import record_gel_reference
+    from tacreasoner.recipes.quickstart_parts import train_gel_reference
+
+    reference, gel_line, measured = None, "each clip's frames as in training (no colour map)", ""
+    if gel_reference == "train":
+        reference, measured = train_gel_reference(paths)
+        gel_line = ("each clip's colours mapped to the gel at rest of the run's train clips "
+                    f"(`video.gel_reference`, {paths.gel_reference.name}; training read them unmapped)")
+    for model in models.values():
+        record_gel_reference(model, reference)
 
     splits = ("test", "test_heldout_sensor") if (paths.bench / "test_heldout_sensor.jsonl").is_file() else ("test",)
     started = time.perf_counter()
@@ -146,6 +159,7 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
              "- Command: `tacreasoner quickstart`",
              f"- Seeds: {sorted(models)} (Stage I + Stage II trained per seed); training seconds per seed: "
              f"{json.dumps(timings)}{_precision_note(models)}; evaluation {eval_seconds} s",
+             f"- Answering: {gel_line}",
              "", "DynTAC-Sim-Bench is simulated: the project's stand-in for the paper's DynTAC-Bench, not its data. "
              "No val or test clip was seen in any training: the appearance encoder holds ImageNet weights "
              "(EfficientNet-Lite0) and trained on no tactile clip; Stages I and II read only train objects. "
@@ -164,6 +178,8 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
         summary.append(f"{split}: Average {100 * report.average['value']:.1f}% over {len(report.tasks)} tasks; "
                        + ("every task above chance (Wilson lower bound)" if not weak else
                           f"not above chance: {', '.join(weak)}"))
+    if reference is not None:
+        summary.append(f"colour map (video.gel_reference): {measured}")
     cut = _cut_lines(paths.evaluation, reports, sorted(models), max_new_tokens)
     lines += [*cut, "Per-item predictions: `eval/<split>/predictions/seed*.jsonl`; full reports with plots: "
               "`eval/<split>/report.md`.", ""]
