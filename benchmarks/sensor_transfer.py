@@ -67,6 +67,10 @@ def with_preparation(model: Path, preparation: str, out: Path, gel_reference: di
 def rule_text(preparations: list[str], held: str, seen: str, seeds: int) -> str:
     """The rule the page's preparations were measured under (each fixed before its first answer)."""
     if "match+gel" in preparations:
+        if seen == "test":
+            return ("`match+gel` was adopted on val by the rule fixed before its first answer "
+                    "(experiments/2026-11-30_sensor_colour/criteria.md, results in sensor_transfer_gel_val.md); this "
+                    "page reads the test objects once, after that choice.")
         return ("Rule fixed before the first answer (experiments/2026-11-30_sensor_colour/criteria.md): `match+gel` "
                 f"is adopted if its {held} average beats `match`'s in every one of 3 seeds and its {seen} mean is "
                 f"within 1 point of {seen} without it" + ("" if seeds >= 3 else f"; with {seeds} seed(s) answered, "
