@@ -141,7 +141,8 @@ def main() -> None:
             "seen_split": seen, "heldout_split": held, "heldout_sensor": bench.get("heldout_sensor"),
             "dtype": args.dtype, "trained_on": args.trained_on, "results": results, "gel_reference": gel,
             "match_adopted_by_rule": adopted if seen == "val" and both else None}
-    tasks = list(next(iter(next(iter(results.values())).values()))["tasks"])
+    first_seed = next(iter(results.values()))
+    tasks = list(next(iter(first_seed.values()))["tasks"])  # every answered split asks the same tasks
     md = header_md(f"A sensor style never seen in training: {seen} (Mini) against {held} "
                    f"({bench.get('heldout_sensor')})", info)
     md += (f"Models: {', '.join(f'`{portable(str(m))}`' for m in args.models)} (the quickstart recipe, one per seed, "

@@ -111,10 +111,9 @@ def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[
 def _gel_mark(model: Path) -> str:
     """The colour map a model folder answers with (``video.gel_reference``, recorded after training and changeable
     without touching the weights), so answers made with and without it are never taken for each other's."""
-    try:
-        reference = json.loads((model / "processor_config.json").read_text(encoding="utf-8"))["video"]["gel_reference"]
-    except (OSError, ValueError, KeyError, TypeError):
-        return ""
+    from tacreasoner.model.processing import saved_processor_config
+
+    reference = (saved_processor_config(model).get("video") or {}).get("gel_reference")
     return f" gel_reference={reference.get('mean')}/{reference.get('std')}" if isinstance(reference, dict) else ""
 
 

@@ -39,7 +39,7 @@ from tacreasoner.model.video_processing import (
 from tacreasoner.tasks.schema import PLACEHOLDER
 
 __all__ = ["IGNORE_INDEX", "OPTION_MASK_OFFSET", "PROCESSOR_CONFIG_NAME", "TacReasonerProcessor", "option_spans",
-           "record_answers", "record_gel_reference"]
+           "record_answers", "record_gel_reference", "saved_processor_config"]
 
 IGNORE_INDEX = -100
 PROCESSOR_CONFIG_NAME = "processor_config.json"
@@ -441,18 +441,15 @@ class TacReasonerProcessor:
 def record_answers(model_dir: str | os.PathLike[str], answers: str) -> None:
     """Record in a saved model folder the answering mode its recipe recommends (``processor_config.json``'s
     ``answers``), so ``ask``/``serve``/``demo`` answer that way by default; the weights are untouched."""
-    path = Path(model_dir) / PROCESSOR_CONFIG_NAME
-    data = read_json_object(path, "a processor config written by TacReasonerProcessor.save_pretrained")
-    if data.get("answers") != answers:
-        atomic_write_text(path, json.dumps({**data, "answers": answers}, indent=2) + "\n")
+    path, data = _read_processor_config(model_dir)
+    _set_if_changed(path, data, "answers", answers)
 
 
 def record_gel_reference(model_dir: str | os.PathLike[str], reference: dict[str, Any] | None) -> None:
     """Record in a saved model folder the training sensor's gel at rest (``processor_config.json``'s
     ``video.gel_reference``; None removes it), so every clip it answers is colour-mapped to it; the weights are
     untouched. Training read its frames without the map: it is an answering-time preparation."""
-    path = Path(model_dir) / PROCESSOR_CONFIG_NAME
-    data = read_json_object(path, "a processor config written by TacReasonerProcessor.save_pretrained")
+    path, data = _read_processor_config(model_dir)
     video = {k: v for k, v in dict(data.get("video") or {}).items() if k != "gel_reference"}
     if reference is not None:
         video["gel_reference"] = {k: [float(v) for v in reference[k]] for k in ("mean", "std")}
@@ -460,5 +457,26 @@ def record_gel_reference(model_dir: str | os.PathLike[str], reference: dict[str,
         video = VideoProcessingConfig.from_dict(video).to_dict()
     except (TypeError, ValueError, KeyError) as exc:
         raise ValueError(f"{path}: cannot record gel_reference ({exc})") from None
-    if data.get("video") != video:
-        atomic_write_text(path, json.dumps({**data, "video": video}, indent=2) + "\n")
+    _set_if_changed(path, data, "video", video)
+
+
+def saved_processor_config(model_dir: str | os.PathLike[str]) -> dict[str, Any]:
+    """A model folder's ``processor_config.json`` as saved, or {} where there is none or it cannot be read: for
+    readers of what a folder records (its vocabulary, answering mode, colour map) that fall back to a default."""
+    try:
+        data = json.loads((Path(model_dir) / PROCESSOR_CONFIG_NAME).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _read_processor_config(model_dir: str | os.PathLike[str]) -> tuple[Path, dict[str, Any]]:
+    path = Path(model_dir) / PROCESSOR_CONFIG_NAME
+    return path, read_json_object(path, "a processor config written by TacReasonerProcessor.save_pretrained")
+
+
+def _set_if_changed(path: Path, data: dict[str, Any], key: str, value: Any) -> None:
+    """Rewrite a processor config with ``key`` set to ``value``, only where it differs (the file's time then says
+    when the folder last changed)."""
+    if data.get(key) != value:
+        atomic_write_text(path, json.dumps({**data, key: value}, indent=2) + "\n")

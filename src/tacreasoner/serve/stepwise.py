@@ -10,11 +10,9 @@ the step. A question it cannot read is left to the one-pass answer (:meth:`Stepw
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 import time
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 from tacreasoner.evaluate.stepwise import (
@@ -31,7 +29,7 @@ from tacreasoner.evaluate.stepwise import (
     reasked_questions,
     steps_for,
 )
-from tacreasoner.model.processing import PROCESSOR_CONFIG_NAME
+from tacreasoner.model.processing import saved_processor_config
 from tacreasoner.serve.engine import Prompt, Reply, Sampling, TactileEngine
 from tacreasoner.serve.stream import split_channels
 from tacreasoner.tasks.schema import QAItem
@@ -72,24 +70,16 @@ def answer_stepwise(engine: TactileEngine, question: str, videos: Sequence[Any],
     return None if view is None else answer_view(engine, view, videos, templates, timeout_s)
 
 
-def _processor_config(model_dir: str | os.PathLike[str]) -> dict[str, Any]:
-    try:
-        data = json.loads((Path(model_dir) / PROCESSOR_CONFIG_NAME).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-    return data if isinstance(data, dict) else {}
-
-
 def model_vocabulary(model_dir: str | os.PathLike[str]) -> str:
     """The level words a model folder was trained on (``processor_config.json``'s ``vocabulary``, recorded at saving
     since 2026-11-29); ``physiclear`` for a folder saved before then or without it."""
-    return str(_processor_config(model_dir).get("vocabulary") or "physiclear")
+    return str(saved_processor_config(model_dir).get("vocabulary") or "physiclear")
 
 
 def model_answers(model_dir: str | os.PathLike[str]) -> str:
     """The answering mode a model folder's recipe recommends (``processor_config.json``'s ``answers``: the
     quickstart's ``auto``, the PhysiCLeAR recipe's ``stepwise-vote``); ``direct`` where none is recorded."""
-    return str(_processor_config(model_dir).get("answers") or "direct")
+    return str(saved_processor_config(model_dir).get("answers") or "direct")
 
 
 class StepwiseAnswerer:
