@@ -329,6 +329,30 @@ def test_evaluate_refuses_to_resume_answers_of_another_model_or_benchmark(model_
     assert len((out / "predictions" / "val.jsonl").read_text().splitlines()) == 3, "the same model resumes"
 
 
+def test_evaluate_refuses_to_resume_answers_prepared_before_a_hand_edit(model_dir: Path, bench: Path,
+                                                                         tmp_path: Path) -> None:
+    """docs/real-data.md tells owners of old folders to add ``orientation`` by hand: the weights keep their time,
+    yet answers made before the edit saw other frames and must not be resumed as the edited model's."""
+    import shutil
+
+    from tacreasoner.cli import app
+    from tacreasoner.evaluate import predict
+
+    model = shutil.copytree(model_dir, tmp_path / "model")
+    runner = CliRunner()
+    out = tmp_path / "eval"
+    base = ["evaluate", "--bench", str(bench), "--out", str(out), "--max-new-tokens", "2", "--model", str(model)]
+    assert runner.invoke(app, [*base, "--limit", "2"]).exit_code == 0
+    before = json.loads((out / "predictions" / "val.jsonl").read_text().splitlines()[0])["answered_by"]
+    config_path = model / "processor_config.json"
+    config = json.loads(config_path.read_text())
+    config["video"]["orientation"] = "as_is" if config["video"].get("orientation") == "match" else "match"
+    config_path.write_text(json.dumps(config))
+    refused = runner.invoke(app, [*base, "--limit", "3"])
+    assert refused.exit_code == 2 and "rather than mix the two" in refused.output
+    assert predict.answerer_id(model, bench) != before
+
+
 def test_evaluate_refuses_to_resume_answers_of_another_benchmark_version(model_dir: Path, bench: Path,
                                                                          tmp_path: Path) -> None:
     """A benchmark rebuilt at another version asks other items under the same ids (TSA in version 2)."""

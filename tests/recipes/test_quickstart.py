@@ -232,9 +232,9 @@ def test_the_quickstart_answers_with_its_gel_reference_and_publishes_it(trained_
     assert "colours mapped to the gel at rest of the run's train clips" in report.path.read_text()
     assert any(line.startswith("colour map (video.gel_reference)") for line in report.summary_lines)
     answered = json.loads((paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines()[0])
-    assert " gel_reference=" in answered["answered_by"]
+    assert " processor=" in answered["answered_by"]
     evaluate_and_report(paths, {0: model}, {}, gel_reference="none")  # switched off: removed, answers redone
     assert "gel_reference" not in json.loads(config_path.read_text())["video"]
     redone = json.loads((paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines()[0])
-    assert " gel_reference=" not in redone["answered_by"]
+    assert " processor=" in redone["answered_by"] and redone["answered_by"] != answered["answered_by"]
 

@@ -12,6 +12,7 @@ A model whose accuracy holds without its own touch answers from the text alone.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import random
@@ -85,11 +86,11 @@ def load_trained(model_dir: str | os.PathLike[str], adapter: str | os.PathLike[s
 
 def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[str], dtype: str | None = None,
                 answers: str = "direct") -> str:
-    """Who answers what, as recorded on each prediction line: the model folder (path, weights' size and time), the
-    benchmark folder, the answering type where it is not float32 and the answering mode where it is not direct (and
-    whether it reads one-clip questions in untrained words: ``stepwise.SINGLE_CLIP_MODES``). Item
-    ids repeat across models and benchmark variants, so a resumed file must be checked against it rather than mix two
-    runs' answers."""
+    """Who answers what, as recorded on each prediction line: the model folder (path, weights' size and time, a
+    digest of its processor config: :func:`_processor_mark`), the benchmark folder, the answering type where it is
+    not float32 and the answering mode where it is not direct (and whether it reads one-clip questions in untrained
+    words: ``stepwise.SINGLE_CLIP_MODES``). Item ids repeat across models and benchmark variants, so a resumed file
+    must be checked against it rather than mix two runs' answers."""
     model = Path(model_dir).resolve()
     weights = sorted(model.glob("*.safetensors"))
     stamp = ",".join(f"{w.stat().st_size}@{w.stat().st_mtime_ns // 10**9}" for w in weights)
@@ -104,17 +105,22 @@ def answerer_id(model_dir: str | os.PathLike[str], bench_dir: str | os.PathLike[
         mode += " (a person's comparisons and real-or-fake questions asked again in the benchmark's words)"
     if answers in EMBEDDING_MODES:  # since 2026-11-29 (the hybrid reader), likewise
         mode += " (a sentence embedding reads what the property words do not)"
-    return (f"model={model} [{stamp}]{_gel_mark(model)}; bench={Path(bench_dir).resolve()}"
+    return (f"model={model} [{stamp}]{_processor_mark(model)}; bench={Path(bench_dir).resolve()}"
             f"{_bench_version(Path(bench_dir))}{cast}{mode}")
 
 
-def _gel_mark(model: Path) -> str:
-    """The colour map a model folder answers with (``video.gel_reference``, recorded after training and changeable
-    without touching the weights), so answers made with and without it are never taken for each other's."""
+def _processor_mark(model: Path) -> str:
+    """A digest of the model folder's saved processor config (how frames are prepared and prompts are built: the
+    colour map, orientation, frames, system prompt, ...), which changes without touching the weights — recorded
+    after training (``gel_reference``, ``answers``) or edited by hand (``orientation``, as docs/real-data.md suggests
+    for old folders) — so answers prepared one way are never resumed as another's. Empty where none is saved."""
     from tacreasoner.model.processing import saved_processor_config
 
-    reference = (saved_processor_config(model).get("video") or {}).get("gel_reference")
-    return f" gel_reference={reference.get('mean')}/{reference.get('std')}" if isinstance(reference, dict) else ""
+    config = saved_processor_config(model)
+    if not config:
+        return ""
+    digest = hashlib.sha256(json.dumps(config, sort_keys=True).encode("utf-8")).hexdigest()[:12]
+    return f" processor={digest}"
 
 
 def _bench_version(bench_dir: Path) -> str:
