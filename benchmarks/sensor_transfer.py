@@ -10,7 +10,10 @@ under two frame preparations, which differ only for frames whose orientation is 
   linear probes, benchmarks/results/sensor_transfer_probe.md);
 * ``match+gel`` (``--gel-reference``): turned, and each clip's colours mapped per channel so that its gel at rest has
   the training sensor's statistics (``video.gel_reference``; experiments/2026-11-30_sensor_colour). It changes a seen
-  clip's input a little too, so the seen split is answered again under it, and its gap is to that row.
+  clip's input a little too, so the seen split is answered again under it, and its gap is to that row;
+* ``match+gel+swap`` (``--gel-reference`` and ``--gel-image``): as ``match+gel``, then each frame's mapped gel at rest
+  replaced by the training sensor's average one (``video.gel_image``; experiments/2026-11-30_sensor_swap): the
+  imprint kept, lit as the training sensor lights its gel.
 
 Mini frames are landscape, so both preparations give them the same input: ``val`` is answered once per model.
 
@@ -36,22 +39,28 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, portable, publish, stamp
 
-PREPARATIONS = ("as_is", "match", "match+gel")
-CHANGES_SEEN = ("match+gel",)
+PREPARATIONS = ("as_is", "match", "match+gel", "match+gel+swap")
+CHANGES_SEEN = ("match+gel", "match+gel+swap")
 """Preparations that change a seen-style clip's input too (``match`` and ``as_is`` leave a landscape Mini frame as it
 is): the seen split is answered again under them."""
 
 
-def with_preparation(model: Path, preparation: str, out: Path, gel_reference: dict | None = None) -> Path:
+def with_preparation(model: Path, preparation: str, out: Path, gel_reference: dict | None = None,
+                     gel_image: list | None = None) -> Path:
     """``model`` answering with its frames prepared by ``preparation`` (a folder of links, its processor config
     rewritten; the model itself where it already prepares them so); the weights are the same. ``match+gel`` also
-    maps each clip's colours to ``gel_reference`` (the training sensor's gel at rest, ``video.gel_reference``)."""
+    maps each clip's colours to ``gel_reference`` (the training sensor's gel at rest, ``video.gel_reference``);
+    ``match+gel+swap`` also swaps in ``gel_image`` (``video.gel_image``)."""
     config = json.loads((model / "processor_config.json").read_text())
     video = dict(config["video"], orientation="as_is" if preparation == "as_is" else "match")
-    if preparation == "match+gel":
+    if preparation.startswith("match+gel"):
         if gel_reference is None:
-            raise SystemExit("error: --preparations match+gel needs --gel-reference FILE")
+            raise SystemExit(f"error: --preparations {preparation} needs --gel-reference FILE")
         video["gel_reference"] = gel_reference
+    if preparation == "match+gel+swap":
+        if gel_image is None:
+            raise SystemExit("error: --preparations match+gel+swap needs --gel-image FILE")
+        video["gel_image"] = gel_image
     if video == config["video"]:
         return model
     out.mkdir(parents=True, exist_ok=True)
@@ -66,6 +75,11 @@ def with_preparation(model: Path, preparation: str, out: Path, gel_reference: di
 
 def rule_text(preparations: list[str], held: str, seen: str, seeds: int) -> str:
     """The rule the page's preparations were measured under (each fixed before its first answer)."""
+    if "match+gel+swap" in preparations:
+        return ("Rule fixed before the first answer (experiments/2026-11-30_sensor_swap/criteria.md): "
+                f"`match+gel+swap` is adopted if its {held} average beats `match+gel`'s in every one of 3 seeds and "
+                f"its {seen} mean is not more than 1 point below `match+gel`'s" +
+                ("" if seeds >= 3 else f"; with {seeds} seed(s) answered, the rule is not decided here") + ".")
     if "match+gel" in preparations:
         if seen == "test":
             return ("`match+gel` was adopted on val by the rule fixed before its first answer "
@@ -106,6 +120,8 @@ def main() -> None:
                     "that change it (one answer pass less per seed, where its plain figure is not needed)")
     ap.add_argument("--gel-reference", type=Path, help="for match+gel: a JSON {mean, std} of the training sensor's "
                     "gel at rest (experiments/2026-11-30_sensor_colour/gel_reference.py writes it from train clips)")
+    ap.add_argument("--gel-image", type=Path, help="for match+gel+swap: a JSON {image} of the training sensor's "
+                    "average gel at rest (experiments/2026-11-30_sensor_swap/gel_image.py writes it from train clips)")
     args = ap.parse_args()
     if args.no_plain_seen and set(args.preparations) - set(CHANGES_SEEN):
         ap.error(f"--no-plain-seen: the gap of {', '.join(set(args.preparations) - set(CHANGES_SEEN))} is to the "
@@ -114,6 +130,7 @@ def main() -> None:
     if args.gel_reference:
         measured = json.loads(args.gel_reference.read_text())
         gel = {k: measured[k] for k in ("mean", "std")}
+    image = json.loads(args.gel_image.read_text())["image"] if args.gel_image else None
     info = stamp()
     seen, held = args.split_suffix, f"{args.split_suffix}_heldout_sensor"
     results: dict[str, dict] = {}
@@ -121,7 +138,7 @@ def main() -> None:
         row = {} if args.no_plain_seen else {
             "seen": evaluate(model, args.bench, seen, args.out / f"seed{seed}" / seen, args.dtype)}
         for prep in args.preparations:
-            prepared = with_preparation(model, prep, args.out / f"seed{seed}" / f"model_{prep}", gel)
+            prepared = with_preparation(model, prep, args.out / f"seed{seed}" / f"model_{prep}", gel, image)
             row[prep] = evaluate(prepared, args.bench, held, args.out / f"seed{seed}" / f"{held}_{prep}", args.dtype)
             if prep in CHANGES_SEEN:
                 row[f"seen_{prep}"] = evaluate(prepared, args.bench, seen, args.out / f"seed{seed}" / f"{seen}_{prep}",
@@ -136,11 +153,17 @@ def main() -> None:
 
     both = {"as_is", "match"} <= set(args.preparations)
     adopted = both and all(r["match"]["average"] > r["as_is"]["average"] for r in results.values())
+    swap = {"match+gel", "match+gel+swap"} <= set(args.preparations) and seen == "val" and len(results) >= 3
+    swap_adopted = swap and all(r["match+gel+swap"]["average"] > r["match+gel"]["average"]
+                                for r in results.values()) \
+        and stat("seen_match+gel+swap")[0] >= stat("seen_match+gel")[0] - 1.0
     bench = json.loads((args.bench / "bench.json").read_text())
     data = {**info, "bench": portable(str(args.bench)), "models": [portable(str(m)) for m in args.models],
             "seen_split": seen, "heldout_split": held, "heldout_sensor": bench.get("heldout_sensor"),
             "dtype": args.dtype, "trained_on": args.trained_on, "results": results, "gel_reference": gel,
-            "match_adopted_by_rule": adopted if seen == "val" and both else None}
+            "match_adopted_by_rule": adopted if seen == "val" and both else None,
+            "swap_adopted_by_rule": swap_adopted if swap else None,
+            "gel_image": portable(str(args.gel_image)) if args.gel_image else None}
     first_seed = next(iter(results.values()))
     tasks = list(next(iter(first_seed.values()))["tasks"])  # every answered split asks the same tasks
     md = header_md(f"A sensor style never seen in training: {seen} (Mini) against {held} "
@@ -163,7 +186,8 @@ def main() -> None:
     gaps = ", ".join(f"{p} {stat(f'seen_{p}' if p in CHANGES_SEEN else 'seen')[0] - stat(p)[0]:+.1f}"
                      for p in args.preparations)
     md += (f"\nGap to the seen style (seen − held-out, mean over seeds): {gaps} points (target ≤ 5)."
-           + (f" Rule: `match` {'adopted' if adopted else 'not adopted'}." if seen == "val" and both else "") + "\n")
+           + (f" Rule: `match` {'adopted' if adopted else 'not adopted'}." if seen == "val" and both else "")
+           + (f" Rule: `match+gel+swap` {'adopted' if swap_adopted else 'not adopted'}." if swap else "") + "\n")
     publish(args.name or f"sensor_transfer_{seen}", data, md)
 
 

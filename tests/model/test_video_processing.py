@@ -7,7 +7,12 @@ import pytest
 
 from tacreasoner.data.clip import TactileClip
 from tacreasoner.model.encoder_config import TactileEncoderConfig
-from tacreasoner.model.video_processing import VideoProcessingConfig, measure_gel_reference, preprocess_video
+from tacreasoner.model.video_processing import (
+    VideoProcessingConfig,
+    measure_gel_image,
+    measure_gel_reference,
+    preprocess_video,
+)
 
 
 def _frames(n: int = 12, h: int = 24, w: int = 32, seed: int = 0) -> np.ndarray:
@@ -170,6 +175,29 @@ def test_gel_reference_maps_another_sensors_tint_back_and_leaves_the_reference_s
     assert np.allclose(reference["mean"], seen[0].reshape(-1, 3).mean(0) / 255, atol=1e-4)
 
 
+def test_gel_image_swaps_where_another_sensors_light_falls_for_the_training_sensors() -> None:
+    seen = _lit_gel(0, (1.0, 1.0, 1.0), (0, 0, 0))
+    other = seen.astype(np.float64)
+    yy, xx = np.mgrid[0:24, 0:32]
+    lighting = np.stack([60 + 2 * xx, 100 + 3 * yy, 120 + xx + yy], axis=-1)  # _lit_gel's, lit from the far side:
+    other += lighting[::-1, ::-1] - lighting  # the same tint and contrast, the light falling elsewhere
+    other = np.clip(other, 0, 255).astype(np.uint8)
+    base = dict(num_frames=8, image_size=(24, 32), background="keep", mean=0.0, std=1.0,
+                gel_reference=measure_gel_reference([seen]))
+    mapped = VideoProcessingConfig(**base)
+    swapped = VideoProcessingConfig(**base, gel_image=measure_gel_image([seen], mapped))
+    assert np.asarray(swapped.gel_image).shape == (6, 8, 3)  # a quarter of the model's resolution
+    target = preprocess_video(seen, mapped)
+    # the seen sensor's clip stays close to itself; the other's lighting, which the colour map leaves, is swapped
+    assert np.abs(preprocess_video(seen, swapped) - target).mean() < 0.01
+    before = np.abs(preprocess_video(other, mapped) - target).mean()
+    after = np.abs(preprocess_video(other, swapped) - target).mean()
+    assert before > 0.05 and after < before / 4
+    # the imprint is the clip's own change from its own rest
+    touched = preprocess_video(other, swapped)
+    assert np.corrcoef((touched[-1] - touched[0]).ravel(), (target[-1] - target[0]).ravel())[0, 1] > 0.95
+
+
 def test_gel_reference_settings_are_checked_and_saved() -> None:
     ref = {"mean": [0.2, 0.4, 0.4], "std": [0.1, 0.06, 0.1]}
     config = VideoProcessingConfig(background="keep", gel_reference=ref)
@@ -183,3 +211,11 @@ def test_gel_reference_settings_are_checked_and_saved() -> None:
         VideoProcessingConfig(background="keep", gel_reference={"mean": [0.2] * 3, "std": [0.1, 0.0, 0.1]})
     with pytest.raises(ValueError, match="no clips"):
         measure_gel_reference([])
+    image = [[[0.2, 0.4, 0.4]] * 4] * 3
+    swapped = VideoProcessingConfig(background="keep", gel_reference=ref, gel_image=image)
+    assert VideoProcessingConfig.from_dict(swapped.to_dict()) == swapped
+    assert "gel_image" not in config.to_dict()
+    with pytest.raises(ValueError, match="gel_image needs gel_reference"):
+        VideoProcessingConfig(background="keep", gel_image=image)
+    with pytest.raises(ValueError, match=r"gel_image must be an h×w×3 image in \[0, 1\]"):
+        VideoProcessingConfig(background="keep", gel_reference=ref, gel_image=[[[0.2, 0.4, 1.5]]])

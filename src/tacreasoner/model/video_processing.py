@@ -25,8 +25,8 @@ from tacreasoner.data.sampling import (
 )
 from tacreasoner.fields import reject_unknown_fields
 
-__all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "measure_gel_reference", "preprocess_video",
-           "sensor_index", "sensor_of"]
+__all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "measure_gel_image", "measure_gel_reference",
+           "preprocess_video", "sensor_index", "sensor_of"]
 
 BACKGROUNDS = ("subtract", "keep")
 COLOURS = ("rgb", "magnitude")
@@ -64,6 +64,12 @@ class VideoProcessingConfig:
     (:func:`measure_gel_reference` over training clips). Each clip's colours are then mapped, channel by channel, so
     that its own gel at rest has those statistics: another sensor's tint and gain become the training sensor's,
     and a clip of the training sensor is left nearly as it is. Per clip; nothing is fitted on evaluation clips."""
+    gel_image: list | None = None
+    """With ``gel_reference``: the training sensor's average gel at rest as prepared (turned, resized; h×w×3 in
+    [0, 1], any size of the model's aspect: it is resized to ``image_size``), from :func:`measure_gel_image` over
+    training clips. Each frame's mapped gel at rest is then replaced by it — frame → map(frame) − map(rest) +
+    image — so the imprint is the clip's own change from its own rest, lit as the training sensor lights its gel
+    (where the light falls differs between sensors; a per-channel map leaves it)."""
 
     def __post_init__(self) -> None:
         self.image_size = tuple(int(v) for v in self.image_size)  # type: ignore[assignment]
@@ -92,6 +98,16 @@ class VideoProcessingConfig:
             if min(ref["std"]) <= 0:
                 raise ValueError(f"video processing: gel_reference std must be > 0, got {ref['std']}")
             self.gel_reference = {k: tuple(float(v) for v in ref[k]) for k in ("mean", "std")}
+        if self.gel_image is not None:
+            image = np.asarray(self.gel_image, dtype=np.float64)
+            if image.ndim != 3 or image.shape[-1] != 3 or min(image.shape[:2]) < 1 or not np.isfinite(image).all() \
+                    or image.min() < 0 or image.max() > 1:
+                raise ValueError(f"video processing: gel_image must be an h×w×3 image in [0, 1], got shape "
+                                 f"{image.shape}")
+            if self.gel_reference is None:
+                raise ValueError("video processing: gel_image needs gel_reference (the frames are mapped to the "
+                                 "training sensor's colours before its gel at rest is swapped in)")
+            self.gel_image = image.round(4).tolist()
         if self.orientation not in ORIENTATIONS:
             raise ValueError(f"video processing: orientation {self.orientation!r} is not one of "
                              f"{', '.join(ORIENTATIONS)}")
@@ -119,7 +135,8 @@ class VideoProcessingConfig:
                 **({"colour": self.colour} if self.colour != "rgb" else {}),
                 **({"orientation": self.orientation} if self.orientation != "as_is" else {}),
                 **({"gel_reference": {k: list(v) for k, v in self.gel_reference.items()}}
-                   if self.gel_reference is not None else {})}
+                   if self.gel_reference is not None else {}),
+                **({"gel_image": self.gel_image} if self.gel_image is not None else {})}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None) -> VideoProcessingConfig:
@@ -140,6 +157,36 @@ def _to_gel_reference(out: np.ndarray, background: np.ndarray, reference: dict[s
     gain = np.asarray(reference["std"]) / np.maximum(std, 1e-3)
     shifted = (out - mean.astype(np.float32)) * gain.astype(np.float32) + np.asarray(reference["mean"], np.float32)
     return np.clip(shifted, 0.0, 1.0, out=shifted)
+
+
+def _gel_image(config: VideoProcessingConfig) -> np.ndarray:
+    """``config.gel_image`` at ``config.image_size``, float32 in [0, 1]."""
+    image = np.asarray(config.gel_image, dtype=np.float32)
+    if image.shape[:2] == tuple(config.image_size):
+        return image
+    as_bytes = np.clip(np.rint(image * 255.0), 0, 255).astype(np.uint8)
+    return resize_keep_aspect(as_bytes, *config.image_size, mode="crop", interpolation="BILINEAR") \
+        .astype(np.float32) / 255.0
+
+
+def measure_gel_image(videos: Sequence[VideoInput], config: VideoProcessingConfig, scale: int = 4) -> list:
+    """The average gel at rest of ``videos`` (training clips of one sensor), each clip's rest frame turned and
+    resized as ``config`` prepares frames, at 1/``scale`` of ``config.image_size``: for
+    :attr:`VideoProcessingConfig.gel_image`. The lighting is smooth, so a small image keeps the config small."""
+    if not videos:
+        raise ValueError("measure_gel_image: no clips given")
+    height, width = config.image_size
+    total = np.zeros((height, width, 3), np.float64)
+    for video in videos:
+        frames, phases, _ = _frames_and_phases(video)
+        rest = background_frame(frames, phases)
+        if config.orientation == "match" and (rest.shape[0] > rest.shape[1]) != (height > width):
+            rest = np.rot90(rest)
+        total += resize_keep_aspect(np.ascontiguousarray(rest), height, width, mode=config.resize_mode)
+    mean = (total / len(videos)).astype(np.float32)
+    small = resize_keep_aspect(np.clip(np.rint(mean), 0, 255).astype(np.uint8), max(1, height // scale),
+                               max(1, width // scale), mode="crop")
+    return (small.astype(np.float64) / 255.0).round(4).tolist()
 
 
 def measure_gel_reference(videos: Sequence[VideoInput]) -> dict[str, list[float]]:
@@ -203,7 +250,8 @@ def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = N
     keep = config.background == "keep"
     if keep and config.gel_reference is not None and background is None:
         background = background_frame(frames, phases)
-    if keep:
+    swap = keep and config.gel_image is not None
+    if keep and not swap:
         chosen = frames[idx]
     else:  # the gel at rest first, prepared with the frames
         if background is None:
@@ -218,6 +266,9 @@ def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = N
         out /= 255.0
         if config.gel_reference is not None:
             out = _to_gel_reference(out, background, config.gel_reference)
+        if swap:
+            out = out[1:] - out[:1] + _gel_image(config)
+            np.clip(out, 0.0, 1.0, out=out)
     else:
         out = subtract_background(chosen[1:], chosen[0])
         if config.colour == "magnitude":
