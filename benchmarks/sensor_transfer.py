@@ -13,7 +13,9 @@ under two frame preparations, which differ only for frames whose orientation is 
   clip's input a little too, so the seen split is answered again under it, and its gap is to that row;
 * ``match+gel+swap`` (``--gel-reference`` and ``--gel-image``): as ``match+gel``, then each frame's mapped gel at rest
   replaced by the training sensor's average one (``video.gel_image``; experiments/2026-11-30_sensor_swap): the
-  imprint kept, lit as the training sensor lights its gel.
+  imprint kept, lit as the training sensor lights its gel;
+* ``match+gel+light``: as ``match+gel+swap``, swapping only the rest frame's smooth part (``video.gel_swap:
+  lighting``): the clip's own fine detail kept.
 
 Mini frames are landscape, so both preparations give them the same input: ``val`` is answered once per model.
 
@@ -39,8 +41,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, portable, publish, stamp
 
-PREPARATIONS = ("as_is", "match", "match+gel", "match+gel+swap")
-CHANGES_SEEN = ("match+gel", "match+gel+swap")
+SWAPS = {"match+gel+swap": "whole", "match+gel+light": "lighting"}
+"""Preparations that swap in the training sensor's gel at rest (``video.gel_image``), and how (``video.gel_swap``)."""
+PREPARATIONS = ("as_is", "match", "match+gel", *SWAPS)
+CHANGES_SEEN = ("match+gel", *SWAPS)
 """Preparations that change a seen-style clip's input too (``match`` and ``as_is`` leave a landscape Mini frame as it
 is): the seen split is answered again under them."""
 
@@ -50,17 +54,19 @@ def with_preparation(model: Path, preparation: str, out: Path, gel_reference: di
     """``model`` answering with its frames prepared by ``preparation`` (a folder of links, its processor config
     rewritten; the model itself where it already prepares them so); the weights are the same. ``match+gel`` also
     maps each clip's colours to ``gel_reference`` (the training sensor's gel at rest, ``video.gel_reference``);
-    ``match+gel+swap`` also swaps in ``gel_image`` (``video.gel_image``)."""
+    ``match+gel+swap`` and ``match+gel+light`` also swap in ``gel_image`` (``video.gel_image``, ``gel_swap``)."""
     config = json.loads((model / "processor_config.json").read_text())
     video = dict(config["video"], orientation="as_is" if preparation == "as_is" else "match")
     if preparation.startswith("match+gel"):
         if gel_reference is None:
             raise SystemExit(f"error: --preparations {preparation} needs --gel-reference FILE")
         video["gel_reference"] = gel_reference
-    if preparation == "match+gel+swap":
+    if preparation in SWAPS:
         if gel_image is None:
-            raise SystemExit("error: --preparations match+gel+swap needs --gel-image FILE")
+            raise SystemExit(f"error: --preparations {preparation} needs --gel-image FILE")
         video["gel_image"] = gel_image
+        if SWAPS[preparation] != "whole":
+            video["gel_swap"] = SWAPS[preparation]
     if video == config["video"]:
         return model
     out.mkdir(parents=True, exist_ok=True)
@@ -75,10 +81,11 @@ def with_preparation(model: Path, preparation: str, out: Path, gel_reference: di
 
 def rule_text(preparations: list[str], held: str, seen: str, seeds: int) -> str:
     """The rule the page's preparations were measured under (each fixed before its first answer)."""
-    if "match+gel+swap" in preparations:
-        return ("Rule fixed before the first answer (experiments/2026-11-30_sensor_swap/criteria.md): "
-                f"`match+gel+swap` is adopted if its {held} average beats `match+gel`'s in every one of 3 seeds and "
-                f"its {seen} mean is not more than 1 point below `match+gel`'s" +
+    swaps = [p for p in preparations if p in SWAPS]
+    if swaps:
+        return ("Rule fixed before each candidate's first answer (experiments/2026-11-30_sensor_swap/criteria.md): "
+                f"{' and '.join(f'`{p}`' for p in swaps)} is adopted if its {held} average beats `match+gel`'s in "
+                f"every one of 3 seeds and its {seen} mean is not more than 1 point below `match+gel`'s" +
                 ("" if seeds >= 3 else f"; with {seeds} seed(s) answered, the rule is not decided here") + ".")
     if "match+gel" in preparations:
         if seen == "test":
@@ -153,16 +160,16 @@ def main() -> None:
 
     both = {"as_is", "match"} <= set(args.preparations)
     adopted = both and all(r["match"]["average"] > r["as_is"]["average"] for r in results.values())
-    swap = {"match+gel", "match+gel+swap"} <= set(args.preparations) and seen == "val" and len(results) >= 3
-    swap_adopted = swap and all(r["match+gel+swap"]["average"] > r["match+gel"]["average"]
-                                for r in results.values()) \
-        and stat("seen_match+gel+swap")[0] >= stat("seen_match+gel")[0] - 1.0
+    judged = [p for p in SWAPS if p in args.preparations] \
+        if "match+gel" in args.preparations and seen == "val" and len(results) >= 3 else []
+    swap_adopted = {p: all(r[p]["average"] > r["match+gel"]["average"] for r in results.values())
+                    and stat(f"seen_{p}")[0] >= stat("seen_match+gel")[0] - 1.0 for p in judged}
     bench = json.loads((args.bench / "bench.json").read_text())
     data = {**info, "bench": portable(str(args.bench)), "models": [portable(str(m)) for m in args.models],
             "seen_split": seen, "heldout_split": held, "heldout_sensor": bench.get("heldout_sensor"),
             "dtype": args.dtype, "trained_on": args.trained_on, "results": results, "gel_reference": gel,
             "match_adopted_by_rule": adopted if seen == "val" and both else None,
-            "swap_adopted_by_rule": swap_adopted if swap else None,
+            "swap_adopted_by_rule": swap_adopted or None,
             "gel_image": portable(str(args.gel_image)) if args.gel_image else None}
     first_seed = next(iter(results.values()))
     tasks = list(next(iter(first_seed.values()))["tasks"])  # every answered split asks the same tasks
@@ -187,7 +194,7 @@ def main() -> None:
                      for p in args.preparations)
     md += (f"\nGap to the seen style (seen − held-out, mean over seeds): {gaps} points (target ≤ 5)."
            + (f" Rule: `match` {'adopted' if adopted else 'not adopted'}." if seen == "val" and both else "")
-           + (f" Rule: `match+gel+swap` {'adopted' if swap_adopted else 'not adopted'}." if swap else "") + "\n")
+           + "".join(f" Rule: `{p}` {'adopted' if ok else 'not adopted'}." for p, ok in swap_adopted.items()) + "\n")
     publish(args.name or f"sensor_transfer_{seen}", data, md)
 
 

@@ -198,6 +198,34 @@ def test_gel_image_swaps_where_another_sensors_light_falls_for_the_training_sens
     assert np.corrcoef((touched[-1] - touched[0]).ravel(), (target[-1] - target[0]).ravel())[0, 1] > 0.95
 
 
+def test_gel_swap_lighting_keeps_the_clips_own_fine_detail_and_swaps_its_lighting() -> None:
+    rng = np.random.default_rng(3)
+    texture = rng.normal(0, 6, (24, 32, 1))  # the gel's own fine pattern, in every frame of the clip
+    seen = np.clip(_lit_gel(0, (1.0, 1.0, 1.0), (0, 0, 0)) + texture, 0, 255).astype(np.uint8)
+    yy, xx = np.mgrid[0:24, 0:32]
+    lighting = np.stack([60 + 2 * xx, 100 + 3 * yy, 120 + xx + yy], axis=-1)
+    other = np.clip(seen + lighting[::-1, ::-1] - lighting, 0, 255).astype(np.uint8)
+    base = dict(num_frames=8, image_size=(24, 32), background="keep", mean=0.0, std=1.0,
+                gel_reference=measure_gel_reference([seen]))
+    image = measure_gel_image([seen], VideoProcessingConfig(**base))
+    whole = VideoProcessingConfig(**base, gel_image=image)
+    light = VideoProcessingConfig(**base, gel_image=image, gel_swap="lighting")
+    assert VideoProcessingConfig.from_dict(light.to_dict()) == light and "gel_swap" not in whole.to_dict()
+    target = preprocess_video(seen, VideoProcessingConfig(**base))
+
+    def detail(video: np.ndarray, config: VideoProcessingConfig) -> float:
+        first = preprocess_video(video, config)[0].mean(axis=0)  # the first frame, channels averaged
+        blocks = first.reshape(6, 4, 8, 4).mean(axis=(1, 3)).repeat(4, axis=0).repeat(4, axis=1)
+        return float(np.corrcoef((first - blocks).ravel(), texture[..., 0].ravel())[0, 1])  # its fine part
+
+    assert detail(seen, whole) < 0.3 < 0.8 < detail(seen, light)  # whole: the texture went with the rest frame
+    assert np.abs(preprocess_video(seen, light) - target).mean() < np.abs(preprocess_video(seen, whole) - target).mean()
+    assert np.abs(preprocess_video(other, light) - target).mean() < 0.3 * np.abs(
+        preprocess_video(other, VideoProcessingConfig(**base)) - target).mean()
+    with pytest.raises(ValueError, match="gel_swap 'part' is not one of whole, lighting"):
+        VideoProcessingConfig(**base, gel_image=image, gel_swap="part")
+
+
 def test_gel_reference_settings_are_checked_and_saved() -> None:
     ref = {"mean": [0.2, 0.4, 0.4], "std": [0.1, 0.06, 0.1]}
     config = VideoProcessingConfig(background="keep", gel_reference=ref)

@@ -31,6 +31,7 @@ __all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "measure_gel_im
 BACKGROUNDS = ("subtract", "keep")
 COLOURS = ("rgb", "magnitude")
 ORIENTATIONS = ("as_is", "match")
+GEL_SWAPS = ("whole", "lighting")
 
 VideoInput = TactileClip | np.ndarray | str | os.PathLike
 """A clip, T×H×W×3 uint8 frames, or a path to a video file."""
@@ -70,6 +71,9 @@ class VideoProcessingConfig:
     training clips. Each frame's mapped gel at rest is then replaced by it — frame → map(frame) − map(rest) +
     image — so the imprint is the clip's own change from its own rest, lit as the training sensor lights its gel
     (where the light falls differs between sensors; a per-channel map leaves it)."""
+    gel_swap: str = "whole"
+    """With ``gel_image``: ``whole`` swaps the clip's whole rest frame for it; ``lighting`` only the rest frame's
+    smooth part (the rest brought down to ``gel_image``'s size and back), keeping the clip's own fine detail."""
 
     def __post_init__(self) -> None:
         self.image_size = tuple(int(v) for v in self.image_size)  # type: ignore[assignment]
@@ -108,6 +112,8 @@ class VideoProcessingConfig:
                 raise ValueError("video processing: gel_image needs gel_reference (the frames are mapped to the "
                                  "training sensor's colours before its gel at rest is swapped in)")
             self.gel_image = image.round(4).tolist()
+        if self.gel_swap not in GEL_SWAPS:
+            raise ValueError(f"video processing: gel_swap {self.gel_swap!r} is not one of {', '.join(GEL_SWAPS)}")
         if self.orientation not in ORIENTATIONS:
             raise ValueError(f"video processing: orientation {self.orientation!r} is not one of "
                              f"{', '.join(ORIENTATIONS)}")
@@ -136,7 +142,8 @@ class VideoProcessingConfig:
                 **({"orientation": self.orientation} if self.orientation != "as_is" else {}),
                 **({"gel_reference": {k: list(v) for k, v in self.gel_reference.items()}}
                    if self.gel_reference is not None else {}),
-                **({"gel_image": self.gel_image} if self.gel_image is not None else {})}
+                **({"gel_image": self.gel_image} if self.gel_image is not None else {}),
+                **({"gel_swap": self.gel_swap} if self.gel_swap != "whole" else {})}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None) -> VideoProcessingConfig:
@@ -166,6 +173,15 @@ def _gel_image(config: VideoProcessingConfig) -> np.ndarray:
         return image
     as_bytes = np.clip(np.rint(image * 255.0), 0, 255).astype(np.uint8)
     return resize_keep_aspect(as_bytes, *config.image_size, mode="crop", interpolation="BILINEAR") \
+        .astype(np.float32) / 255.0
+
+
+def _smoothed(frame: np.ndarray, config: VideoProcessingConfig) -> np.ndarray:
+    """One frame in [0, 1] brought down to ``config.gel_image``'s size and back: its smooth part (the lighting)."""
+    height, width = np.asarray(config.gel_image).shape[:2]
+    as_bytes = np.clip(np.rint(frame * 255.0), 0, 255).astype(np.uint8)
+    small = resize_keep_aspect(as_bytes, height, width, mode="crop")
+    return resize_keep_aspect(small, *config.image_size, mode="crop", interpolation="BILINEAR") \
         .astype(np.float32) / 255.0
 
 
@@ -267,7 +283,8 @@ def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = N
         if config.gel_reference is not None:
             out = _to_gel_reference(out, background, config.gel_reference)
         if swap:
-            out = out[1:] - out[:1] + _gel_image(config)
+            rest = out[:1] if config.gel_swap == "whole" else _smoothed(out[0], config)[None]
+            out = out[1:] - rest + _gel_image(config)
             np.clip(out, 0.0, 1.0, out=out)
     else:
         out = subtract_background(chosen[1:], chosen[0])
