@@ -224,6 +224,8 @@ def test_gel_swap_lighting_keeps_the_clips_own_fine_detail_and_swaps_its_lightin
         preprocess_video(other, VideoProcessingConfig(**base)) - target).mean()
     with pytest.raises(ValueError, match="gel_swap 'part' is not one of whole, lighting"):
         VideoProcessingConfig(**base, gel_image=image, gel_swap="part")
+    with pytest.raises(ValueError, match="gel_swap 'lighting' needs gel_image"):
+        VideoProcessingConfig(**base, gel_swap="lighting")
 
 
 def test_gel_reference_settings_are_checked_and_saved() -> None:

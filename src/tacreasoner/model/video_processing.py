@@ -114,6 +114,8 @@ class VideoProcessingConfig:
             self.gel_image = image.round(4).tolist()
         if self.gel_swap not in GEL_SWAPS:
             raise ValueError(f"video processing: gel_swap {self.gel_swap!r} is not one of {', '.join(GEL_SWAPS)}")
+        if self.gel_swap != "whole" and self.gel_image is None:
+            raise ValueError(f"video processing: gel_swap {self.gel_swap!r} needs gel_image (what to swap in)")
         if self.orientation not in ORIENTATIONS:
             raise ValueError(f"video processing: orientation {self.orientation!r} is not one of "
                              f"{', '.join(ORIENTATIONS)}")
