@@ -1,8 +1,8 @@
 """Mini val under ``match+gel+light``: are the RFOR/OCSE items lost on clips whose own lighting is far from R?
 
-As run 2026-11-30 19:10 from the main checkout, after run.sh's second run (a diagnosis of answers already made; nothing is
-chosen from it): .venv/bin/python experiments/2026-11-30_sensor_swap/light_diag.py. Uses the module's private
-helpers on purpose, to measure exactly the perturbation the swap adds to a clip: R − smooth(map(rest)).
+As run 2026-11-30 19:10 from the main checkout, after run.sh's second run (a diagnosis of answers already made;
+nothing is chosen from it): .venv/bin/python experiments/2026-11-30_sensor_swap/light_diag.py. Uses the module's
+private helpers on purpose, to measure exactly the perturbation the swap adds to a clip: R − smooth(map(rest)).
 """
 
 from __future__ import annotations
