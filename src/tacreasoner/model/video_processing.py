@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -74,6 +74,8 @@ class VideoProcessingConfig:
     gel_swap: str = "whole"
     """With ``gel_image``: ``whole`` swaps the clip's whole rest frame for it; ``lighting`` only the rest frame's
     smooth part (the rest brought down to ``gel_image``'s size and back), keeping the clip's own fine detail."""
+    _gel_full: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
+    """``gel_image`` at ``image_size`` (float32 in [0, 1]), made once here rather than for every clip."""
 
     def __post_init__(self) -> None:
         self.image_size = tuple(int(v) for v in self.image_size)  # type: ignore[assignment]
@@ -112,6 +114,9 @@ class VideoProcessingConfig:
                 raise ValueError("video processing: gel_image needs gel_reference (the frames are mapped to the "
                                  "training sensor's colours before its gel at rest is swapped in)")
             self.gel_image = image.round(4).tolist()
+            full = np.asarray(self.gel_image, np.float32)
+            self._gel_full = full if full.shape[:2] == self.image_size else \
+                _unit_resized(full, *self.image_size, "BILINEAR")
         if self.gel_swap not in GEL_SWAPS:
             raise ValueError(f"video processing: gel_swap {self.gel_swap!r} is not one of {', '.join(GEL_SWAPS)}")
         if self.gel_swap != "whole" and self.gel_image is None:
@@ -168,23 +173,24 @@ def _to_gel_reference(out: np.ndarray, background: np.ndarray, reference: dict[s
     return np.clip(shifted, 0.0, 1.0, out=shifted)
 
 
+def _unit_resized(frame: np.ndarray, height: int, width: int, interpolation: str = "AREA") -> np.ndarray:
+    """One H×W×3 frame in [0, 1] resized to height×width (through uint8, what ``resize_keep_aspect`` takes),
+    float32 in [0, 1]."""
+    as_bytes = np.clip(np.rint(frame * 255.0), 0, 255).astype(np.uint8)
+    return resize_keep_aspect(as_bytes, height, width, mode="crop", interpolation=interpolation) \
+        .astype(np.float32) / 255.0
+
+
 def _gel_image(config: VideoProcessingConfig) -> np.ndarray:
     """``config.gel_image`` at ``config.image_size``, float32 in [0, 1]."""
-    image = np.asarray(config.gel_image, dtype=np.float32)
-    if image.shape[:2] == tuple(config.image_size):
-        return image
-    as_bytes = np.clip(np.rint(image * 255.0), 0, 255).astype(np.uint8)
-    return resize_keep_aspect(as_bytes, *config.image_size, mode="crop", interpolation="BILINEAR") \
-        .astype(np.float32) / 255.0
+    assert config._gel_full is not None, "gel_image is not set"
+    return config._gel_full
 
 
 def _smoothed(frame: np.ndarray, config: VideoProcessingConfig) -> np.ndarray:
     """One frame in [0, 1] brought down to ``config.gel_image``'s size and back: its smooth part (the lighting)."""
-    height, width = np.asarray(config.gel_image).shape[:2]
-    as_bytes = np.clip(np.rint(frame * 255.0), 0, 255).astype(np.uint8)
-    small = resize_keep_aspect(as_bytes, height, width, mode="crop")
-    return resize_keep_aspect(small, *config.image_size, mode="crop", interpolation="BILINEAR") \
-        .astype(np.float32) / 255.0
+    small = _unit_resized(frame, len(config.gel_image), len(config.gel_image[0]))
+    return _unit_resized(small, *config.image_size, "BILINEAR")
 
 
 def measure_gel_image(videos: Sequence[VideoInput], config: VideoProcessingConfig, scale: int = 4) -> list:
