@@ -15,7 +15,10 @@ under two frame preparations, which differ only for frames whose orientation is 
   replaced by the training sensor's average one (``video.gel_image``; experiments/2026-11-30_sensor_swap): the
   imprint kept, lit as the training sensor lights its gel;
 * ``match+gel+light``: as ``match+gel+swap``, swapping only the rest frame's smooth part (``video.gel_swap:
-  lighting``): the clip's own fine detail kept.
+  lighting``): the clip's own fine detail kept;
+* ``match+gel+swap+gate``, ``match+gel+light+gate``: the same swaps, made only for a clip whose gel at rest is lit
+  farther from the training sensor's than any training clip's was (``video.gel_swap_above``, the ``swap_above`` of
+  the ``--gel-image`` file; experiments/2026-11-30_sensor_gate): a clip within it is prepared as ``match+gel``.
 
 Mini frames are landscape, so both preparations give them the same input: ``val`` is answered once per model.
 
@@ -41,8 +44,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, portable, publish, stamp
 
-SWAPS = {"match+gel+swap": "whole", "match+gel+light": "lighting"}
-"""Preparations that swap in the training sensor's gel at rest (``video.gel_image``), and how (``video.gel_swap``)."""
+SWAPS = {"match+gel+swap": "whole", "match+gel+light": "lighting",
+         "match+gel+swap+gate": "whole", "match+gel+light+gate": "lighting"}
+"""Preparations that swap in the training sensor's gel at rest (``video.gel_image``), and how (``video.gel_swap``);
+those ending ``+gate`` only for clips beyond ``video.gel_swap_above``."""
 PREPARATIONS = ("as_is", "match", "match+gel", *SWAPS)
 CHANGES_SEEN = ("match+gel", *SWAPS)
 """Preparations that change a seen-style clip's input too (``match`` and ``as_is`` leave a landscape Mini frame as it
@@ -50,11 +55,12 @@ is): the seen split is answered again under them."""
 
 
 def with_preparation(model: Path, preparation: str, out: Path, gel_reference: dict | None = None,
-                     gel_image: list | None = None) -> Path:
+                     gel_image: list | None = None, swap_above: float | None = None) -> Path:
     """``model`` answering with its frames prepared by ``preparation`` (a folder of links, its processor config
     rewritten; the model itself where it already prepares them so); the weights are the same. ``match+gel`` also
     maps each clip's colours to ``gel_reference`` (the training sensor's gel at rest, ``video.gel_reference``);
-    ``match+gel+swap`` and ``match+gel+light`` also swap in ``gel_image`` (``video.gel_image``, ``gel_swap``)."""
+    ``match+gel+swap`` and ``match+gel+light`` also swap in ``gel_image`` (``video.gel_image``, ``gel_swap``), and
+    their ``+gate`` forms only beyond ``swap_above`` (``video.gel_swap_above``)."""
     config = json.loads((model / "processor_config.json").read_text())
     video = dict(config["video"], orientation="as_is" if preparation == "as_is" else "match")
     if preparation.startswith("match+gel"):
@@ -67,6 +73,11 @@ def with_preparation(model: Path, preparation: str, out: Path, gel_reference: di
         video["gel_image"] = gel_image
         if SWAPS[preparation] != "whole":
             video["gel_swap"] = SWAPS[preparation]
+        if preparation.endswith("+gate"):
+            if swap_above is None:
+                raise SystemExit(f"error: --preparations {preparation} needs a swap_above in the --gel-image file "
+                                 "(experiments/2026-11-30_sensor_gate/swap_above.py adds it)")
+            video["gel_swap_above"] = swap_above
     if video == config["video"]:
         return model
     out.mkdir(parents=True, exist_ok=True)
@@ -83,7 +94,8 @@ def rule_text(preparations: list[str], held: str, seen: str, seeds: int) -> str:
     """The rule the page's preparations were measured under (each fixed before its first answer)."""
     swaps = [p for p in preparations if p in SWAPS]
     if swaps:
-        return ("Rule fixed before each candidate's first answer (experiments/2026-11-30_sensor_swap/criteria.md): "
+        criteria = "2026-11-30_sensor_gate" if any(p.endswith("+gate") for p in swaps) else "2026-11-30_sensor_swap"
+        return (f"Rule fixed before each candidate's first answer (experiments/{criteria}/criteria.md): "
                 f"{' and '.join(f'`{p}`' for p in swaps)} is adopted if its {held} average beats `match+gel`'s in "
                 f"every one of 3 seeds and its {seen} mean is not more than 1 point below `match+gel`'s" +
                 ("" if seeds >= 3 else f"; with {seeds} seed(s) answered, the rule is not decided here") + ".")
@@ -128,7 +140,8 @@ def main() -> None:
     ap.add_argument("--gel-reference", type=Path, help="for match+gel: a JSON {mean, std} of the training sensor's "
                     "gel at rest (experiments/2026-11-30_sensor_colour/gel_reference.py writes it from train clips)")
     ap.add_argument("--gel-image", type=Path, help="for match+gel+swap: a JSON {image} of the training sensor's "
-                    "average gel at rest (experiments/2026-11-30_sensor_swap/gel_image.py writes it from train clips)")
+                    "average gel at rest (experiments/2026-11-30_sensor_swap/gel_image.py writes it from train clips); "
+                    "for the +gate forms also {swap_above} (experiments/2026-11-30_sensor_gate/swap_above.py)")
     args = ap.parse_args()
     if args.no_plain_seen and set(args.preparations) - set(CHANGES_SEEN):
         ap.error(f"--no-plain-seen: the gap of {', '.join(set(args.preparations) - set(CHANGES_SEEN))} is to the "
@@ -137,7 +150,8 @@ def main() -> None:
     if args.gel_reference:
         measured = json.loads(args.gel_reference.read_text())
         gel = {k: measured[k] for k in ("mean", "std")}
-    image = json.loads(args.gel_image.read_text())["image"] if args.gel_image else None
+    swap = json.loads(args.gel_image.read_text()) if args.gel_image else {}
+    image, swap_above = swap.get("image"), swap.get("swap_above")
     info = stamp()
     seen, held = args.split_suffix, f"{args.split_suffix}_heldout_sensor"
     results: dict[str, dict] = {}
@@ -145,7 +159,8 @@ def main() -> None:
         row = {} if args.no_plain_seen else {
             "seen": evaluate(model, args.bench, seen, args.out / f"seed{seed}" / seen, args.dtype)}
         for prep in args.preparations:
-            prepared = with_preparation(model, prep, args.out / f"seed{seed}" / f"model_{prep}", gel, image)
+            prepared = with_preparation(model, prep, args.out / f"seed{seed}" / f"model_{prep}", gel, image,
+                                        swap_above)
             row[prep] = evaluate(prepared, args.bench, held, args.out / f"seed{seed}" / f"{held}_{prep}", args.dtype)
             if prep in CHANGES_SEEN:
                 row[f"seen_{prep}"] = evaluate(prepared, args.bench, seen, args.out / f"seed{seed}" / f"{seen}_{prep}",
@@ -170,7 +185,7 @@ def main() -> None:
             "dtype": args.dtype, "trained_on": args.trained_on, "results": results, "gel_reference": gel,
             "match_adopted_by_rule": adopted if seen == "val" and both else None,
             "swap_adopted_by_rule": swap_adopted or None,
-            "gel_image": portable(str(args.gel_image)) if args.gel_image else None}
+            "gel_image": portable(str(args.gel_image)) if args.gel_image else None, "gel_swap_above": swap_above}
     first_seed = next(iter(results.values()))
     tasks = list(next(iter(first_seed.values()))["tasks"])  # every answered split asks the same tasks
     md = header_md(f"A sensor style never seen in training: {seen} (Mini) against {held} "

@@ -14,9 +14,10 @@ def reject_unknown_fields(cls: Any, data: Iterable[Any], what: str, *,
     """Raise ``ValueError(f"{what} {unknown}")`` when ``data`` has keys that are not fields of dataclass ``cls``.
 
     ``unknown`` is the sorted list of offending keys. With ``known``, the message goes on with
-    ``"; known: a, b, …"``: the field names sorted, or in their declared order.
+    ``"; known: a, b, …"``: the field names sorted, or in their declared order. Fields with ``init=False`` (caches
+    a class computes for itself) are not known: ``cls(**data)`` would fail on them with a TypeError.
     """
-    names = [f.name for f in dataclasses.fields(cls)]
+    names = [f.name for f in dataclasses.fields(cls) if f.init]
     unknown = sorted(set(data) - set(names))
     if not unknown:
         return

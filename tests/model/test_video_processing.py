@@ -11,6 +11,7 @@ from tacreasoner.model.video_processing import (
     VideoProcessingConfig,
     measure_gel_image,
     measure_gel_reference,
+    measure_gel_swap_above,
     preprocess_video,
 )
 
@@ -84,6 +85,9 @@ def test_bad_inputs_and_settings_are_named() -> None:
         VideoProcessingConfig(sampling="random")
     with pytest.raises(ValueError, match=r"unknown keys \['fps'\]"):
         VideoProcessingConfig.from_dict({"fps": 25})
+    # a cache the config computes for itself is not a setting: named as unknown, not a TypeError from __init__
+    with pytest.raises(ValueError, match=r"unknown keys \['_gel_full'\]"):
+        VideoProcessingConfig.from_dict({"_gel_full": None})
 
 
 def test_encoder_config_checks_and_round_trip() -> None:
@@ -226,6 +230,35 @@ def test_gel_swap_lighting_keeps_the_clips_own_fine_detail_and_swaps_its_lightin
         VideoProcessingConfig(**base, gel_image=image, gel_swap="part")
     with pytest.raises(ValueError, match="gel_swap 'lighting' needs gel_image"):
         VideoProcessingConfig(**base, gel_swap="lighting")
+
+
+def test_gel_swap_above_leaves_the_training_sensors_clips_and_swaps_anothers() -> None:
+    yy, xx = np.mgrid[0:24, 0:32]
+    lighting = np.stack([60 + 2 * xx, 100 + 3 * yy, 120 + xx + yy], axis=-1)
+    seen = [_lit_gel(seed, (1.0, 1.0, 1.0), (0, 0, 0)) for seed in range(3)]  # the training sensor, three clips
+    other = np.clip(seen[0] + lighting[::-1, ::-1] - lighting, 0, 255).astype(np.uint8)  # lit from the far side
+    base = dict(num_frames=8, image_size=(24, 32), background="keep", mean=0.0, std=1.0,
+                gel_reference=measure_gel_reference(seen))
+    mapped = VideoProcessingConfig(**base)
+    image = measure_gel_image(seen, mapped)
+    for mode in ("whole", "lighting"):
+        always = VideoProcessingConfig(**base, gel_image=image, gel_swap=mode)
+        above = measure_gel_swap_above(seen, always)
+        assert 0 < above < 0.05
+        gated = VideoProcessingConfig(**base, gel_image=image, gel_swap=mode, gel_swap_above=above)
+        assert VideoProcessingConfig.from_dict(gated.to_dict()) == gated and "gel_swap_above" not in always.to_dict()
+        for clip in seen:  # within every training clip's distance: exactly what the colour map alone gives
+            assert np.array_equal(preprocess_video(clip, gated), preprocess_video(clip, mapped))
+            assert not np.array_equal(preprocess_video(clip, always), preprocess_video(clip, mapped))
+        assert np.array_equal(preprocess_video(other, gated), preprocess_video(other, always))  # another sensor
+    with pytest.raises(ValueError, match="gel_swap_above needs gel_image"):
+        VideoProcessingConfig(**base, gel_swap_above=0.01)
+    with pytest.raises(ValueError, match="gel_swap_above must be a number ≥ 0"):
+        VideoProcessingConfig(**base, gel_image=image, gel_swap_above=-0.1)
+    with pytest.raises(ValueError, match="no clips"):
+        measure_gel_swap_above([], gated)
+    with pytest.raises(ValueError, match="needs gel_image"):
+        measure_gel_swap_above(seen, mapped)
 
 
 def test_gel_reference_settings_are_checked_and_saved() -> None:

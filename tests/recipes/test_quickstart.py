@@ -7,6 +7,7 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tacreasoner.recipes.quickstart import (
@@ -40,6 +41,7 @@ def test_quickstart_settings_ship_with_the_package_and_name_the_recommended_mode
     assert settings.eval_dtype == "auto"  # bf16 answering only where the hardware has it (chosen on val)
     assert settings.answers == "auto"  # how ask/serve/demo answer the published model (chosen on val)
     assert settings.gel_reference == "train" and "gel_reference" not in settings.encoder  # chosen on val
+    assert settings.gel_swap == "gate" and "gel_swap" not in settings.encoder  # chosen on val
 
 
 def test_quickstart_stages_follow_the_data_flow(tmp_path: Path) -> None:
@@ -64,6 +66,12 @@ def test_a_broken_settings_file_is_named(tmp_path: Path) -> None:
         QuickstartSettings.load(broken)
     broken.write_text(QUICKSTART_SETTINGS.read_text().replace("background: keep", "background: subtract"))
     with pytest.raises(ValueError, match=r"gel_reference 'train' needs background 'keep'"):
+        QuickstartSettings.load(broken)
+    broken.write_text(QUICKSTART_SETTINGS.read_text().replace("gel_swap: gate", "gel_swap: always"))
+    with pytest.raises(ValueError, match=r"gel_swap must be one of gate, none, got 'always'"):
+        QuickstartSettings.load(broken)
+    broken.write_text(QUICKSTART_SETTINGS.read_text().replace("gel_reference: train", "gel_reference: none"))
+    with pytest.raises(ValueError, match=r"gel_swap 'gate' needs gel_reference 'train'"):
         QuickstartSettings.load(broken)
 
 
@@ -213,6 +221,36 @@ def test_the_gel_reference_is_measured_on_train_clips_of_the_trained_sensor_only
     assert train_gel_reference(paths)[0] == reference, "kept, not measured again"
 
 
+def test_the_gel_swap_is_measured_on_train_clips_and_swaps_only_the_other_sensors(trained_run) -> None:
+    from tacreasoner.data.readers import read_sim_dataset
+    from tacreasoner.model.video_processing import VideoProcessingConfig, preprocess_video
+    from tacreasoner.recipes.quickstart_parts import train_gel_reference, train_gel_swap
+
+    root, _ = trained_run
+    info = json.loads((root / "bench" / "bench.json").read_text())
+    paths = QuickstartPaths(root / "swap")
+    shutil.copytree(root / "bench", paths.bench)
+    reference, _ = train_gel_reference(paths)
+    video = {"num_frames": 4, "image_size": [24, 32], "background": "keep", "orientation": "match",
+             "gel_reference": reference}
+    swap, line = train_gel_swap(paths, video, max_clips=4)
+    saved = json.loads(paths.gel_swap.read_text())
+    clips = list(read_sim_dataset(info["data"]))
+    train = [c for c in clips if info["splits"][c.object_id] == "train" and c.sensor == "mini"]
+    assert saved["sensors"] == ["mini"] and saved["swap_above_clips"] == len(train) and saved["image_clips"] == 4
+    assert np.asarray(swap["image"]).shape == (6, 8, 3) and f"any of {len(train)} train clips" in line
+    gated = VideoProcessingConfig.from_dict({**video, "gel_image": swap["image"], "gel_swap_above": swap["swap_above"]})
+    mapped = VideoProcessingConfig.from_dict(video)
+    for clip in train:  # every train clip of the trained sensor is left as the colour map leaves it
+        assert np.array_equal(preprocess_video(clip, gated), preprocess_video(clip, mapped))
+    always = VideoProcessingConfig.from_dict({**video, "gel_image": swap["image"]})
+    digit = [c for c in clips if c.sensor == "digit"][:4]
+    for clip in digit:  # another sensor's clips are swapped
+        assert np.array_equal(preprocess_video(clip, gated), preprocess_video(clip, always))
+    assert train_gel_swap(paths, video)[1].startswith("already there")  # kept while the frames are prepared alike
+    assert not train_gel_swap(paths, {**video, "image_size": [48, 64]})[1].startswith("already there")
+
+
 def test_the_quickstart_answers_with_its_gel_reference_and_publishes_it(trained_run, tmp_path: Path) -> None:
     from tacreasoner.model.processing import TacReasonerProcessor
 
@@ -233,8 +271,17 @@ def test_the_quickstart_answers_with_its_gel_reference_and_publishes_it(trained_
     assert any(line.startswith("colour map (video.gel_reference)") for line in report.summary_lines)
     answered = json.loads((paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines()[0])
     assert " processor=" in answered["answered_by"]
+    gated = evaluate_and_report(paths, {0: model}, {}, gel_reference="train", gel_swap="gate")
+    swap = json.loads(paths.gel_swap.read_text())
+    for folder in (model, paths.model):
+        video = TacReasonerProcessor.from_pretrained(folder).video_config.to_dict()
+        assert video["gel_reference"] == reference and video["gel_swap_above"] == swap["swap_above"]
+        assert video["gel_image"] == swap["image"]
+    assert "gel at rest swapped for their average" in gated.path.read_text()
+    assert any(line.startswith("gel swap for another sensor") for line in gated.summary_lines)
     evaluate_and_report(paths, {0: model}, {}, gel_reference="none")  # switched off: removed, answers redone
-    assert "gel_reference" not in json.loads(config_path.read_text())["video"]
+    video = json.loads(config_path.read_text())["video"]
+    assert not {"gel_reference", "gel_image", "gel_swap_above"} & set(video)
     redone = json.loads((paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines()[0])
     assert " processor=" in redone["answered_by"] and redone["answered_by"] != answered["answered_by"]
 

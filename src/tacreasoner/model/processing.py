@@ -445,14 +445,24 @@ def record_answers(model_dir: str | os.PathLike[str], answers: str) -> None:
     _set_if_changed(path, data, "answers", answers)
 
 
-def record_gel_reference(model_dir: str | os.PathLike[str], reference: dict[str, Any] | None) -> None:
+GEL_KEYS = ("gel_reference", "gel_image", "gel_swap", "gel_swap_above")
+"""``video`` keys :func:`record_gel_reference` owns: what a recipe measured on its train clips after training."""
+
+
+def record_gel_reference(model_dir: str | os.PathLike[str], reference: dict[str, Any] | None,
+                         swap: dict[str, Any] | None = None) -> None:
     """Record in a saved model folder the training sensor's gel at rest (``processor_config.json``'s
     ``video.gel_reference``; None removes it), so every clip it answers is colour-mapped to it; the weights are
-    untouched. Training read its frames without the map: it is an answering-time preparation."""
+    untouched. Training read its frames without the map: it is an answering-time preparation. ``swap``
+    (``{image, swap_above}``, with a reference) also records the training clips' average gel at rest and the gate
+    (``video.gel_image``, ``video.gel_swap_above``): a clip lit unlike every training clip (another sensor) has it
+    swapped in; None removes them."""
     path, data = _read_processor_config(model_dir)
-    video = {k: v for k, v in dict(data.get("video") or {}).items() if k != "gel_reference"}
+    video = {k: v for k, v in dict(data.get("video") or {}).items() if k not in GEL_KEYS}
     if reference is not None:
         video["gel_reference"] = {k: [float(v) for v in reference[k]] for k in ("mean", "std")}
+    if swap is not None:
+        video.update(gel_image=swap["image"], gel_swap_above=float(swap["swap_above"]))
     try:
         video = VideoProcessingConfig.from_dict(video).to_dict()
     except (TypeError, ValueError, KeyError) as exc:

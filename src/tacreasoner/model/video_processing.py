@@ -25,8 +25,8 @@ from tacreasoner.data.sampling import (
 )
 from tacreasoner.fields import reject_unknown_fields
 
-__all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "measure_gel_image", "measure_gel_reference",
-           "preprocess_video", "sensor_index", "sensor_of"]
+__all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "gel_rest_distance", "measure_gel_image",
+           "measure_gel_reference", "measure_gel_swap_above", "preprocess_video", "sensor_index", "sensor_of"]
 
 BACKGROUNDS = ("subtract", "keep")
 COLOURS = ("rgb", "magnitude")
@@ -74,6 +74,11 @@ class VideoProcessingConfig:
     gel_swap: str = "whole"
     """With ``gel_image``: ``whole`` swaps the clip's whole rest frame for it; ``lighting`` only the rest frame's
     smooth part (the rest brought down to ``gel_image``'s size and back), keeping the clip's own fine detail."""
+    gel_swap_above: float | None = None
+    """With ``gel_image``: swap only a clip whose mapped gel at rest differs from ``gel_image`` by more than this
+    (:func:`gel_rest_distance`, a mean absolute difference in [0, 1]); a clip within it is prepared as without the
+    swap. Set to the largest distance over the training sensor's own clips (:func:`measure_gel_swap_above`), it
+    leaves the training sensor's clips as they are and swaps another sensor's."""
     _gel_full: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
     """``gel_image`` at ``image_size`` (float32 in [0, 1]), made once here rather than for every clip."""
 
@@ -121,6 +126,12 @@ class VideoProcessingConfig:
             raise ValueError(f"video processing: gel_swap {self.gel_swap!r} is not one of {', '.join(GEL_SWAPS)}")
         if self.gel_swap != "whole" and self.gel_image is None:
             raise ValueError(f"video processing: gel_swap {self.gel_swap!r} needs gel_image (what to swap in)")
+        if self.gel_swap_above is not None:
+            if self.gel_image is None:
+                raise ValueError("video processing: gel_swap_above needs gel_image (the distance is measured to it)")
+            if not np.isfinite(self.gel_swap_above) or self.gel_swap_above < 0:
+                raise ValueError(f"video processing: gel_swap_above must be a number ≥ 0, got {self.gel_swap_above!r}")
+            self.gel_swap_above = float(self.gel_swap_above)
         if self.orientation not in ORIENTATIONS:
             raise ValueError(f"video processing: orientation {self.orientation!r} is not one of "
                              f"{', '.join(ORIENTATIONS)}")
@@ -150,7 +161,8 @@ class VideoProcessingConfig:
                 **({"gel_reference": {k: list(v) for k, v in self.gel_reference.items()}}
                    if self.gel_reference is not None else {}),
                 **({"gel_image": self.gel_image} if self.gel_image is not None else {}),
-                **({"gel_swap": self.gel_swap} if self.gel_swap != "whole" else {})}
+                **({"gel_swap": self.gel_swap} if self.gel_swap != "whole" else {}),
+                **({"gel_swap_above": self.gel_swap_above} if self.gel_swap_above is not None else {})}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None) -> VideoProcessingConfig:
@@ -191,6 +203,28 @@ def _smoothed(frame: np.ndarray, config: VideoProcessingConfig) -> np.ndarray:
     """One frame in [0, 1] brought down to ``config.gel_image``'s size and back: its smooth part (the lighting)."""
     small = _unit_resized(frame, len(config.gel_image), len(config.gel_image[0]))
     return _unit_resized(small, *config.image_size, "BILINEAR")
+
+
+def gel_rest_distance(mapped_rest: np.ndarray, config: VideoProcessingConfig) -> float:
+    """How far a clip's gel at rest (prepared and colour-mapped, H×W×3 in [0, 1]) is lit from ``config.gel_image``:
+    the mean absolute difference of its smooth part from it — what ``gel_swap: lighting`` would add to each frame."""
+    return float(np.abs(_smoothed(mapped_rest, config) - _gel_image(config)).mean())
+
+
+def measure_gel_swap_above(videos: Sequence[VideoInput], config: VideoProcessingConfig) -> float:
+    """The largest :func:`gel_rest_distance` over ``videos`` (the training sensor's clips), for
+    :attr:`VideoProcessingConfig.gel_swap_above`: no clip of that sensor seen in training lay farther."""
+    if not videos:
+        raise ValueError("measure_gel_swap_above: no clips given")
+    if config.gel_image is None or config.background != "keep":
+        raise ValueError("measure_gel_swap_above: config needs gel_image (and gel_reference, background 'keep')")
+    distances = []
+    for video in videos:
+        frames, phases, _ = _frames_and_phases(video)
+        rest = background_frame(frames, phases)
+        mapped = _prepared(rest[None], config, rest)[0]
+        distances.append(gel_rest_distance(mapped, config))
+    return float(np.ceil(max(distances) * 1e6) / 1e6)  # rounded up: the farthest clip itself stays within
 
 
 def measure_gel_image(videos: Sequence[VideoInput], config: VideoProcessingConfig, scale: int = 4) -> list:
@@ -249,6 +283,24 @@ def _frames_and_phases(video: VideoInput) -> tuple[np.ndarray, Sequence[str] | N
     return frames, None, "frames"
 
 
+def _turned_and_resized(frames: np.ndarray, config: VideoProcessingConfig) -> np.ndarray:
+    """uint8 T×H×W×3 frames turned (``orientation: match``) and resized to ``config.image_size``."""
+    if config.orientation == "match" and (frames.shape[1] > frames.shape[2]) != \
+            (config.image_size[0] > config.image_size[1]):
+        frames = np.rot90(frames, axes=(1, 2))
+    return resize_keep_aspect(frames, *config.image_size, mode=config.resize_mode)
+
+
+def _prepared(frames: np.ndarray, config: VideoProcessingConfig, background: np.ndarray | None) -> np.ndarray:
+    """uint8 frames turned, resized, in [0, 1] float32, and colour-mapped by ``background`` (the clip's gel at rest,
+    as recorded) when ``config.gel_reference`` is set: the frames as ``background: keep`` prepares them."""
+    out = _turned_and_resized(frames, config).astype(np.float32)
+    out /= 255.0
+    if config.gel_reference is not None:
+        out = _to_gel_reference(out, background, config.gel_reference)
+    return out
+
+
 def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = None, *,
                      seed: int | None = None, background: np.ndarray | None = None) -> np.ndarray:
     """num_frames×3×H×W float32: sampled, resized keeping aspect, background-subtracted (unless
@@ -281,20 +333,17 @@ def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = N
         if background is None:
             background = background_frame(frames, phases)
         chosen = np.concatenate([background[None], frames[idx]])
-    if config.orientation == "match" and (frames.shape[1] > frames.shape[2]) != \
-            (config.image_size[0] > config.image_size[1]):
-        chosen = np.rot90(chosen, axes=(1, 2))
-    chosen = resize_keep_aspect(chosen, *config.image_size, mode=config.resize_mode)
     if keep:
-        out = chosen.astype(np.float32)
-        out /= 255.0
-        if config.gel_reference is not None:
-            out = _to_gel_reference(out, background, config.gel_reference)
+        out = _prepared(chosen, config, background)
         if swap:
-            rest = out[:1] if config.gel_swap == "whole" else _smoothed(out[0], config)[None]
-            out = out[1:] - rest + _gel_image(config)
-            np.clip(out, 0.0, 1.0, out=out)
+            if config.gel_swap_above is not None and gel_rest_distance(out[0], config) <= config.gel_swap_above:
+                out = out[1:]  # lit as the training sensor's own clips were: left as the colour map leaves it
+            else:
+                rest = out[:1] if config.gel_swap == "whole" else _smoothed(out[0], config)[None]
+                out = out[1:] - rest + _gel_image(config)
+                np.clip(out, 0.0, 1.0, out=out)
     else:
+        chosen = _turned_and_resized(chosen, config)
         out = subtract_background(chosen[1:], chosen[0])
         if config.colour == "magnitude":
             change = np.sqrt(np.square(out - 0.5).sum(axis=-1, keepdims=True) / 3.0)

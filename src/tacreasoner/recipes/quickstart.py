@@ -28,6 +28,8 @@ QUICKSTART_SETTINGS = Path(__file__).with_name("quickstart.yaml")
 """The quickstart's own settings (shipped with the package)."""
 GEL_REFERENCES = ("train", "none")
 """``quickstart.yaml``'s ``encoder.gel_reference``: measured on the run's train clips, or no colour map."""
+GEL_SWAPS = ("gate", "none")
+"""``quickstart.yaml``'s ``encoder.gel_swap``: another sensor's gel at rest swapped for the train clips', or never."""
 
 Say = Callable[[str], None]
 Progress = Callable[[str], Callable[[int, int], None]]
@@ -51,6 +53,9 @@ class QuickstartSettings:
     gel_reference: str = "none"
     """``train``: after training, each model records its sensor's gel at rest measured on train clips
     (``video.gel_reference``), so the clips it answers are colour-mapped to it; ``none``: frames as trained."""
+    gel_swap: str = "none"
+    """``gate`` (with ``gel_reference: train``): each model also records the train clips' average gel at rest and
+    swaps it in for a clip lit unlike any train clip, another sensor's (``video.gel_image``, ``gel_swap_above``)."""
 
     @classmethod
     def load(cls, path: Path = QUICKSTART_SETTINGS) -> QuickstartSettings:
@@ -66,8 +71,15 @@ class QuickstartSettings:
             if gel == "train" and encoder.get("background", "keep") != "keep":
                 raise ValueError("encoder.gel_reference 'train' needs background 'keep' (a subtracted frame has no "
                                  "gel colours left to map)")
+            swap = str(encoder.pop("gel_swap", "none"))
+            if swap not in GEL_SWAPS:
+                raise ValueError(f"encoder.gel_swap must be one of {', '.join(GEL_SWAPS)}, got {swap!r}")
+            if swap == "gate" and gel != "train":
+                raise ValueError("encoder.gel_swap 'gate' needs gel_reference 'train' (the gel at rest is swapped "
+                                 "after the colours are mapped)")
             return cls(objects=int(sim["objects"]), repeats=int(sim["repeats"]), sensors=list(sim["sensors"]),
-                       encoder=encoder, gel_reference=gel, train_config=str(train["config"]), llm=str(train["llm"]),
+                       encoder=encoder, gel_reference=gel, gel_swap=swap, train_config=str(train["config"]),
+                       llm=str(train["llm"]),
                        eval_batch_size=int(evaluate["batch_size"]), max_new_tokens=int(evaluate["max_new_tokens"]),
                        eval_dtype=str(check_dtype(evaluate.get("dtype", "float32"))),
                        answers=check_answers(str((data.get("serve") or {}).get("answers", "direct"))))
@@ -173,7 +185,7 @@ def quickstart_stages(run: QuickstartRun, settings: QuickstartSettings | None = 
         report = evaluate_and_report(paths, trained, timings, batch_size=settings.eval_batch_size,
                                      max_new_tokens=settings.max_new_tokens, dtype=settings.eval_dtype,
                                      progress=progress, answers=settings.answers,
-                                     gel_reference=settings.gel_reference)
+                                     gel_reference=settings.gel_reference, gel_swap=settings.gel_swap)
         return [*report.summary_lines, f"report: {report.path}"]
 
     def ask() -> list[str]:

@@ -10,7 +10,7 @@ from typing import Any
 from tacreasoner.recipes.run_folder import RunFolder
 
 __all__ = ["GEL_REFERENCE_CLIPS", "QuickstartPaths", "baselines", "bench", "encoder", "llm", "preview", "simulate",
-           "train_gel_reference"]
+           "train_gel_reference", "train_gel_swap"]
 
 GEL_REFERENCE_CLIPS = 100
 """Train clips the gel at rest is measured on: it barely differs between clips of one sensor."""
@@ -44,6 +44,10 @@ class QuickstartPaths(RunFolder):
     @property
     def gel_reference(self) -> Path:
         return self.root / "gel_reference.json"
+
+    @property
+    def gel_swap(self) -> Path:
+        return self.root / "gel_swap.json"
 
 
 def simulate(paths: QuickstartPaths, objects: int, repeats: int, sensors: list[str], seed: int,
@@ -112,30 +116,68 @@ def encoder(paths: QuickstartPaths, settings: dict[str, Any]) -> list[str]:
             f"frames of {video.image_size[0]}x{video.image_size[1]}: no training, no clip read"]
 
 
-def train_gel_reference(paths: QuickstartPaths, max_clips: int = GEL_REFERENCE_CLIPS) -> tuple[dict[str, Any], str]:
-    """The trained sensor's gel at rest (``video.gel_reference``), measured on the benchmark's train objects in
-    the styles it trains on (a held-out style's clips, val and test clips are never read); kept in
-    ``gel_reference.json`` beside the clips it came from. Returns the reference and a line saying where from."""
+def _train_clips(paths: QuickstartPaths) -> list:
+    """The benchmark's train-object clips in the styles it trains on (a held-out style's clips, val and test clips
+    are never read)."""
     import json
 
-    if paths.gel_reference.is_file():
-        saved = json.loads(paths.gel_reference.read_text(encoding="utf-8"))
-        return {k: saved[k] for k in ("mean", "std")}, f"already there: {paths.gel_reference}"
     from tacreasoner.data.readers import read_sim_dataset
-    from tacreasoner.jsonl import atomic_write_text
-    from tacreasoner.model.video_processing import measure_gel_reference
 
     info = json.loads((paths.bench / "bench.json").read_text(encoding="utf-8"))
     data = Path(info["data"])  # the clips the benchmark's splits name
     trained = sorted(set(info.get("sensors") or []) - {info.get("heldout_sensor")})
     clips = [c for c in read_sim_dataset(data)
-             if info["splits"].get(c.object_id) == "train" and (not trained or c.sensor in trained)][:max_clips]
+             if info["splits"].get(c.object_id) == "train" and (not trained or c.sensor in trained)]
     if not clips:
         raise ValueError(f"{paths.bench / 'bench.json'}: no train clip of the trained sensor(s) in {data} to "
                          "measure the gel at rest on")
+    return clips
+
+
+def train_gel_reference(paths: QuickstartPaths, max_clips: int = GEL_REFERENCE_CLIPS) -> tuple[dict[str, Any], str]:
+    """The trained sensor's gel at rest (``video.gel_reference``), measured on the benchmark's train objects in
+    the styles it trains on; kept in ``gel_reference.json`` beside the clips it came from. Returns the reference
+    and a line saying where from."""
+    import json
+
+    if paths.gel_reference.is_file():
+        saved = json.loads(paths.gel_reference.read_text(encoding="utf-8"))
+        return {k: saved[k] for k in ("mean", "std")}, f"already there: {paths.gel_reference}"
+    from tacreasoner.jsonl import atomic_write_text
+    from tacreasoner.model.video_processing import measure_gel_reference
+
+    clips = _train_clips(paths)[:max_clips]
     reference = measure_gel_reference(clips)
     atomic_write_text(paths.gel_reference, json.dumps(
         {**reference, "split": "train", "sensors": sorted({c.sensor for c in clips}),
          "clips": [c.clip_id for c in clips]}, indent=2) + "\n")
     return reference, (f"gel at rest of {len(clips)} train clips ({', '.join(sorted({c.sensor for c in clips}))}): "
                        f"mean {reference['mean']}, std {reference['std']} → {paths.gel_reference}")
+
+
+def train_gel_swap(paths: QuickstartPaths, video: dict[str, Any],
+                   max_clips: int = GEL_REFERENCE_CLIPS) -> tuple[dict[str, Any], str]:
+    """The swap of another sensor's gel at rest (``video.gel_image``, ``video.gel_swap_above``) for a model whose
+    frames ``video`` prepares (its colour map included): the average gel at rest of up to ``max_clips`` train
+    clips, and the gate, the farthest any train clip's lighting lies from it. Kept in ``gel_swap.json``; like
+    the reference, measured on the trained styles' train clips only. Returns ``{image, swap_above}`` and a line."""
+    import json
+
+    from tacreasoner.jsonl import atomic_write_text
+    from tacreasoner.model.video_processing import VideoProcessingConfig, measure_gel_image, measure_gel_swap_above
+
+    config = VideoProcessingConfig.from_dict({k: v for k, v in video.items() if k not in ("gel_image", "gel_swap",
+                                                                                          "gel_swap_above")})
+    if paths.gel_swap.is_file():  # reused while the frames it was measured for are prepared alike
+        saved = json.loads(paths.gel_swap.read_text(encoding="utf-8"))
+        if saved.get("video") == config.to_dict():
+            return {k: saved[k] for k in ("image", "swap_above")}, f"already there: {paths.gel_swap}"
+    clips = _train_clips(paths)
+    image = measure_gel_image(clips[:max_clips], config)
+    above = measure_gel_swap_above(clips, VideoProcessingConfig.from_dict({**config.to_dict(), "gel_image": image}))
+    atomic_write_text(paths.gel_swap, json.dumps(
+        {"image": image, "swap_above": above, "split": "train", "sensors": sorted({c.sensor for c in clips}),
+         "image_clips": min(len(clips), max_clips), "swap_above_clips": len(clips), "video": config.to_dict()}) + "\n")
+    return {"image": image, "swap_above": above}, (
+        f"average gel at rest of {min(len(clips), max_clips)} train clips, swapped in for a clip lit farther from it "
+        f"than any of {len(clips)} train clips ({above * 255:.1f} grey levels) → {paths.gel_swap}")

@@ -127,23 +127,33 @@ def _precision_note(models: dict[int, Path]) -> str:
 def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings: dict[str, Any], *,
                         batch_size: int = 48, max_new_tokens: int = 64, dtype: str | None = None,
                         progress: Callable[[str], Callable[[int, int], None]] | None = None,
-                        answers: str = "direct", gel_reference: str = "none") -> QuickstartReport:
+                        answers: str = "direct", gel_reference: str = "none",
+                        gel_swap: str = "none") -> QuickstartReport:
     """Evaluate every seed's model on the test split(s), write ``report.md`` + ``report.json`` and publish seed 0's
     model with ``answers`` recorded as how ``ask``/``serve``/``demo`` answer it by default. ``gel_reference``
     ``train``: each model first records the gel at rest of the run's train clips and answers colour-mapped to it
-    (``none``: a recorded one is removed)."""
+    (``none``: a recorded one is removed); ``gel_swap`` ``gate`` also records the train clips' average gel at rest,
+    swapped in for a clip lit unlike any of them (another sensor's)."""
     from datetime import datetime, timezone
 
     from tacreasoner.model.processing import record_gel_reference
-    from tacreasoner.recipes.quickstart_parts import train_gel_reference
+    from tacreasoner.recipes.quickstart_parts import train_gel_reference, train_gel_swap
 
-    reference, gel_line, measured = None, "each clip's frames as in training (no colour map)", ""
+    reference, gel_line, measured, swap, swapped = None, "each clip's frames as in training (no colour map)", "", \
+        None, ""
     if gel_reference == "train":
         reference, measured = train_gel_reference(paths)
         gel_line = ("each clip's colours mapped to the gel at rest of the run's train clips "
                     f"(`video.gel_reference`, {paths.gel_reference.name}; training read them unmapped)")
     for model in models.values():
         record_gel_reference(model, reference)
+    if gel_swap == "gate" and reference is not None and models:
+        video = json.loads((next(iter(models.values())) / "processor_config.json").read_text())["video"]
+        swap, swapped = train_gel_swap(paths, video)
+        gel_line += ("; a clip lit unlike every train clip (another sensor's) has its gel at rest swapped for their "
+                     f"average (`video.gel_image`, `gel_swap_above`, {paths.gel_swap.name})")
+        for model in models.values():
+            record_gel_reference(model, reference, swap)
 
     splits = ("test", "test_heldout_sensor") if (paths.bench / "test_heldout_sensor.jsonl").is_file() else ("test",)
     started = time.perf_counter()
@@ -180,6 +190,8 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
                           f"not above chance: {', '.join(weak)}"))
     if reference is not None:
         summary.append(f"colour map (video.gel_reference): {measured}")
+    if swap is not None:
+        summary.append(f"gel swap for another sensor (video.gel_image): {swapped}")
     cut = _cut_lines(paths.evaluation, reports, sorted(models), max_new_tokens)
     lines += [*cut, "Per-item predictions: `eval/<split>/predictions/seed*.jsonl`; full reports with plots: "
               "`eval/<split>/report.md`.", ""]
