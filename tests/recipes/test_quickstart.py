@@ -58,21 +58,16 @@ def test_a_broken_settings_file_is_named(tmp_path: Path) -> None:
     broken.write_text("simulate: {objects: 3}\n")
     with pytest.raises(ValueError, match=r"quickstart\.yaml: not a quickstart settings file"):
         QuickstartSettings.load(broken)
-    broken.write_text(QUICKSTART_SETTINGS.read_text().replace("dtype: auto", "dtype: fp8"))  # one bad value
-    with pytest.raises(ValueError, match=r"not a quickstart settings file \(dtype must be one of .*got 'fp8'\)"):
-        QuickstartSettings.load(broken)
-    broken.write_text(QUICKSTART_SETTINGS.read_text().replace("gel_reference: train", "gel_reference: val"))
-    with pytest.raises(ValueError, match=r"gel_reference must be one of train, none, got 'val'"):
-        QuickstartSettings.load(broken)
-    broken.write_text(QUICKSTART_SETTINGS.read_text().replace("background: keep", "background: subtract"))
-    with pytest.raises(ValueError, match=r"gel_reference 'train' needs background 'keep'"):
-        QuickstartSettings.load(broken)
-    broken.write_text(QUICKSTART_SETTINGS.read_text().replace("gel_swap: gate", "gel_swap: always"))
-    with pytest.raises(ValueError, match=r"gel_swap must be one of gate, none, got 'always'"):
-        QuickstartSettings.load(broken)
-    broken.write_text(QUICKSTART_SETTINGS.read_text().replace("gel_reference: train", "gel_reference: none"))
-    with pytest.raises(ValueError, match=r"gel_swap 'gate' needs gel_reference 'train'"):
-        QuickstartSettings.load(broken)
+    for shipped, edited, message in [  # one bad value at a time, each named
+            ("dtype: auto", "dtype: fp8", r"not a quickstart settings file \(dtype must be one of .*got 'fp8'\)"),
+            ("gel_reference: train", "gel_reference: val", r"gel_reference must be one of train, none, got 'val'"),
+            ("background: keep", "background: subtract", r"gel_reference 'train' needs background 'keep'"),
+            ("gel_swap: gate", "gel_swap: always", r"gel_swap must be one of gate, none, got 'always'"),
+            ("gel_reference: train", "gel_reference: none", r"gel_swap 'gate' needs gel_reference 'train'")]:
+        assert shipped in QUICKSTART_SETTINGS.read_text()
+        broken.write_text(QUICKSTART_SETTINGS.read_text().replace(shipped, edited))
+        with pytest.raises(ValueError, match=message):
+            QuickstartSettings.load(broken)
 
 
 def test_auto_answers_in_bf16_only_where_the_hardware_computes_it(monkeypatch: pytest.MonkeyPatch) -> None:
