@@ -136,24 +136,22 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
     swapped in for a clip lit unlike any of them (another sensor's)."""
     from datetime import datetime, timezone
 
-    from tacreasoner.model.processing import record_gel_reference
+    from tacreasoner.model.processing import record_gel_reference, saved_processor_config
     from tacreasoner.recipes.quickstart_parts import train_gel_reference, train_gel_swap
 
-    reference, gel_line, measured, swap, swapped = None, "each clip's frames as in training (no colour map)", "", \
-        None, ""
+    reference, gel_line, measured = None, "each clip's frames as in training (no colour map)", ""
+    swap, swapped = None, ""
     if gel_reference == "train":
         reference, measured = train_gel_reference(paths)
         gel_line = ("each clip's colours mapped to the gel at rest of the run's train clips "
                     f"(`video.gel_reference`, {paths.gel_reference.name}; training read them unmapped)")
-    for model in models.values():
-        record_gel_reference(model, reference)
-    if gel_swap == "gate" and reference is not None and models:
-        video = json.loads((next(iter(models.values())) / "processor_config.json").read_text())["video"]
-        swap, swapped = train_gel_swap(paths, video)
+    if gel_swap == "gate" and reference is not None and models:  # measured for the frames the models prepare
+        video = saved_processor_config(next(iter(models.values()))).get("video") or {}
+        swap, swapped = train_gel_swap(paths, {**video, "gel_reference": reference})
         gel_line += ("; a clip lit unlike every train clip (another sensor's) has its gel at rest swapped for their "
                      f"average (`video.gel_image`, `gel_swap_above`, {paths.gel_swap.name})")
-        for model in models.values():
-            record_gel_reference(model, reference, swap)
+    for model in models.values():
+        record_gel_reference(model, reference, swap)
 
     splits = ("test", "test_heldout_sensor") if (paths.bench / "test_heldout_sensor.jsonl").is_file() else ("test",)
     started = time.perf_counter()
