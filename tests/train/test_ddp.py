@@ -29,7 +29,13 @@ from tests.train.trainsetup import (
 )
 
 WORKER = Path(__file__).with_name("ddp_worker.py")
-TIMEOUT_S = 600  # a bound for hangs; a launch takes ~30 s alone, 300+ on 2 cores shared with other jobs
+# torchrun itself (its own argument parsing and elastic agent), started from a fresh interpreter that imports the
+# trainer first and then forks its two workers (`--run-path --start-method fork`): each launch then imports torch,
+# transformers and the package once instead of three times (torchrun, then each worker: ~11 of a launch's ~17 s on 2
+# cores). Every launch is still a new process group of new processes; the resumed one reads only the checkpoint.
+PRELOAD_THEN_TORCHRUN = ("import sys\nimport tacreasoner.train.trainer\nfrom torch.distributed.run import main\n"
+                         "main(sys.argv[1:])")
+TIMEOUT_S = 600  # a bound for hangs; a launch takes ~12–17 s alone, 300+ on 2 cores shared with other jobs
 STEPS = 3
 
 
@@ -41,8 +47,12 @@ def inputs(small_sim_dataset: Path, tmp_path_factory: pytest.TempPathFactory) ->
 def _launch_two_processes(config_json: Path, weights_dir: Path, port: int, stage: int = 2, *, poison: str = "",
                           **env_more: str) -> subprocess.CompletedProcess:
     env = {**os.environ, "OMP_NUM_THREADS": "1", "TOKENIZERS_PARALLELISM": "false", "POISON": poison, **env_more}
-    cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc_per_node", "2", "--master_addr", "127.0.0.1",
-           "--master_port", str(port), str(WORKER), str(config_json), str(weights_dir), str(stage)]
+    # a poisoned run shows that each process stops by itself, so it starts its workers as plain torchrun does: forked
+    # from the preloaded interpreter, the healthy worker was ended before it printed its own stop (tried 2026-12-01)
+    launcher = ["-m", "torch.distributed.run"] if poison else ["-c", PRELOAD_THEN_TORCHRUN]
+    forked = [] if poison else ["--run-path", "--start-method", "fork"]
+    cmd = [sys.executable, *launcher, "--nproc_per_node", "2", "--master_addr", "127.0.0.1", "--master_port",
+           str(port), *forked, str(WORKER), str(config_json), str(weights_dir), str(stage)]
     try:
         done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
     except subprocess.TimeoutExpired as exc:
