@@ -3,7 +3,7 @@
 Usage:
 
     python benchmarks/touch_control.py --model runs/quickstart/model --bench runs/quickstart/bench \
-        --split test --out runs/touch_control [--limit N] [--touch-seed 0] [--results-dir DIR]
+        --split val --out runs/touch_control [--limit N] [--touch-seed 0] [--results-dir DIR]
 
 The same model answers the same items with its real videos, with blank clips and with other items' clips; per task
 the table gives accuracy with Wilson 95% intervals, chance, and the exact McNemar p of real against each control
@@ -27,7 +27,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--model", type=Path, required=True, help="trained model directory (stage2/model)")
     parser.add_argument("--bench", type=Path, required=True, help="benchmark directory")
-    parser.add_argument("--split", choices=("val", "test"), default="test")
+    parser.add_argument("--split", choices=("val", "test"), default="val",
+                        help="val by default: test once, after every choice is made")
     parser.add_argument("--out", type=Path, required=True, help="predictions and reports (resumable)")
     parser.add_argument("--limit", type=int, default=None, help="only the first N items (the shuffle draws from them)")
     parser.add_argument("--touch-seed", type=int, default=0, help="seed of the shuffled videos")
