@@ -49,10 +49,10 @@ def _launch_two_processes(config_json: Path, weights_dir: Path, port: int, stage
     env = {**os.environ, "OMP_NUM_THREADS": "1", "TOKENIZERS_PARALLELISM": "false", "POISON": poison, **env_more}
     # a poisoned run shows that each process stops by itself, so it starts its workers as plain torchrun does: forked
     # from the preloaded interpreter, the healthy worker was ended before it printed its own stop (tried 2026-12-01)
-    launcher = ["-m", "torch.distributed.run"] if poison else ["-c", PRELOAD_THEN_TORCHRUN]
-    forked = [] if poison else ["--run-path", "--start-method", "fork"]
+    launcher = (["-m", "torch.distributed.run"] if poison else
+                ["-c", PRELOAD_THEN_TORCHRUN, "--run-path", "--start-method", "fork"])
     cmd = [sys.executable, *launcher, "--nproc_per_node", "2", "--master_addr", "127.0.0.1", "--master_port",
-           str(port), *forked, str(WORKER), str(config_json), str(weights_dir), str(stage)]
+           str(port), str(WORKER), str(config_json), str(weights_dir), str(stage)]
     try:
         done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=TIMEOUT_S)
     except subprocess.TimeoutExpired as exc:
