@@ -90,12 +90,16 @@ def with_preparation(model: Path, preparation: str, out: Path, gel_reference: di
     return out
 
 
-def rule_text(preparations: list[str], held: str, seen: str, seeds: int) -> str:
-    """The rule the page's preparations were measured under (each fixed before its first answer)."""
+def rule_text(preparations: list[str], held: str, seen: str, seeds: int, criteria: Path | None = None) -> str:
+    """The rule the page's preparations were measured under (each fixed before its first answer); ``criteria``: the
+    file holding it, for models trained differently (their decision applies it)."""
+    if criteria is not None:
+        return (f"Rule fixed before the first of these models was trained: {portable(str(criteria))} (its "
+                "decision.md applies it).")
     swaps = [p for p in preparations if p in SWAPS]
     if swaps:
-        criteria = "2026-11-30_sensor_gate" if any(p.endswith("+gate") for p in swaps) else "2026-11-30_sensor_swap"
-        return (f"Rule fixed before each candidate's first answer (experiments/{criteria}/criteria.md): "
+        folder = "2026-11-30_sensor_gate" if any(p.endswith("+gate") for p in swaps) else "2026-11-30_sensor_swap"
+        return (f"Rule fixed before each candidate's first answer (experiments/{folder}/criteria.md): "
                 f"{' and '.join(f'`{p}`' for p in swaps)} is adopted if its {held} average beats `match+gel`'s in "
                 f"every one of 3 seeds and its {seen} mean is not more than 1 point below `match+gel`'s" +
                 ("" if seeds >= 3 else f"; with {seeds} seed(s) answered, the rule is not decided here") + ".")
@@ -142,6 +146,8 @@ def main() -> None:
     ap.add_argument("--gel-image", type=Path, help="for match+gel+swap: a JSON {image} of the training sensor's "
                     "average gel at rest (experiments/2026-11-30_sensor_swap/gel_image.py writes it from train clips); "
                     "for the +gate forms also {swap_above} (experiments/2026-11-30_sensor_gate/swap_above.py)")
+    ap.add_argument("--criteria", type=Path, help="the criteria file whose rule the page reports (models trained "
+                    "otherwise than the quickstart; default: the answer-time preparations' rules)")
     args = ap.parse_args()
     if args.no_plain_seen and set(args.preparations) - set(CHANGES_SEEN):
         ap.error(f"--no-plain-seen: the gap of {', '.join(set(args.preparations) - set(CHANGES_SEEN))} is to the "
@@ -176,7 +182,7 @@ def main() -> None:
     both = {"as_is", "match"} <= set(args.preparations)
     adopted = both and all(r["match"]["average"] > r["as_is"]["average"] for r in results.values())
     judged = [p for p in SWAPS if p in args.preparations] \
-        if "match+gel" in args.preparations and seen == "val" and len(results) >= 3 else []
+        if args.criteria is None and "match+gel" in args.preparations and seen == "val" and len(results) >= 3 else []
     swap_adopted = {p: all(r[p]["average"] > r["match+gel"]["average"] for r in results.values())
                     and stat(f"seen_{p}")[0] >= stat("seen_match+gel")[0] - 1.0 for p in judged}
     bench = json.loads((args.bench / "bench.json").read_text())
@@ -185,14 +191,15 @@ def main() -> None:
             "dtype": args.dtype, "trained_on": args.trained_on, "results": results, "gel_reference": gel,
             "match_adopted_by_rule": adopted if seen == "val" and both else None,
             "swap_adopted_by_rule": swap_adopted or None,
-            "gel_image": portable(str(args.gel_image)) if args.gel_image else None, "gel_swap_above": swap_above}
+            "gel_image": portable(str(args.gel_image)) if args.gel_image else None, "gel_swap_above": swap_above,
+            "criteria": portable(str(args.criteria)) if args.criteria else None}
     first_seed = next(iter(results.values()))
     tasks = list(next(iter(first_seed.values()))["tasks"])  # every answered split asks the same tasks
     md = header_md(f"A sensor style never seen in training: {seen} (Mini) against {held} "
                    f"({bench.get('heldout_sensor')})", info)
     md += (f"Models: {', '.join(f'`{portable(str(m))}`' for m in args.models)} (the quickstart recipe, one per seed, "
            f"trained on {args.trained_on}); weights {args.dtype}; strict answer extraction. The same objects in both "
-           f"styles. {rule_text(args.preparations, held, seen, len(results))}\n\n")
+           f"styles. {rule_text(args.preparations, held, seen, len(results), args.criteria)}\n\n")
     rows = []
     shown = [] if args.no_plain_seen else [(f"{seen} (Mini, seen)", "seen")]
     for p in args.preparations:
