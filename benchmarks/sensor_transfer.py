@@ -44,7 +44,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, portable, publish, stamp
 
-SWAPS = {"match+gel+swap": "whole", "match+gel+light": "lighting",
+SWAPS = {"match+gel+swap": "whole", "match+gel+light": "lighting", "match+gel+imprint": "imprint",
          "match+gel+swap+gate": "whole", "match+gel+light+gate": "lighting"}
 """Preparations that swap in the training sensor's gel at rest (``video.gel_image``), and how (``video.gel_swap``);
 those ending ``+gate`` only for clips beyond ``video.gel_swap_above``."""

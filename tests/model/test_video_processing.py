@@ -226,10 +226,33 @@ def test_gel_swap_lighting_keeps_the_clips_own_fine_detail_and_swaps_its_lightin
     assert np.abs(preprocess_video(seen, light) - target).mean() < np.abs(preprocess_video(seen, whole) - target).mean()
     assert np.abs(preprocess_video(other, light) - target).mean() < 0.3 * np.abs(
         preprocess_video(other, VideoProcessingConfig(**base)) - target).mean()
-    with pytest.raises(ValueError, match="gel_swap 'part' is not one of whole, lighting"):
+    with pytest.raises(ValueError, match="gel_swap 'part' is not one of whole, lighting, imprint"):
         VideoProcessingConfig(**base, gel_image=image, gel_swap="part")
     with pytest.raises(ValueError, match="gel_swap 'lighting' needs gel_image"):
         VideoProcessingConfig(**base, gel_swap="lighting")
+
+
+def test_gel_swap_imprint_keeps_another_sensors_imprint_at_its_own_scale() -> None:
+    seen = _lit_gel(0, (1.0, 1.0, 1.0), (0, 0, 0))
+    yy, xx = np.mgrid[0:24, 0:32]
+    lighting = np.stack([60 + 2 * xx, 100 + 3 * yy, 120 + xx + yy], axis=-1).astype(np.float64)
+    flat = seen - 0.5 * (lighting - lighting.mean(axis=(0, 1)))  # a gel lit half as unevenly, the same presses
+    flat = np.clip(flat, 0, 255).astype(np.uint8)
+    base = dict(num_frames=8, image_size=(24, 32), background="keep", mean=0.0, std=1.0,
+                gel_reference=measure_gel_reference([seen]))
+    image = measure_gel_image([seen], VideoProcessingConfig(**base))
+    whole = VideoProcessingConfig(**base, gel_image=image)
+    imprint = VideoProcessingConfig(**base, gel_image=image, gel_swap="imprint")
+    assert VideoProcessingConfig.from_dict(imprint.to_dict()) == imprint
+
+    def change(video: np.ndarray, config: VideoProcessingConfig) -> float:
+        frames = preprocess_video(video, config)
+        return float(np.abs(frames[-1] - frames[0]).mean())
+
+    own = change(seen, VideoProcessingConfig(**base))
+    assert change(flat, whole) > 1.5 * own  # the map's gain for the flatter gel inflates its imprint
+    assert abs(change(flat, imprint) - own) < 0.1 * own  # kept at its own scale
+    assert np.abs(preprocess_video(seen, imprint) - preprocess_video(seen, whole)).mean() < 0.01  # gain ~1: as whole
 
 
 def test_gel_swap_above_leaves_the_training_sensors_clips_and_swaps_anothers() -> None:

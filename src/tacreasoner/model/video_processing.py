@@ -31,7 +31,7 @@ __all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "gel_rest_dista
 BACKGROUNDS = ("subtract", "keep")
 COLOURS = ("rgb", "magnitude")
 ORIENTATIONS = ("as_is", "match")
-GEL_SWAPS = ("whole", "lighting")
+GEL_SWAPS = ("whole", "lighting", "imprint")
 
 VideoInput = TactileClip | np.ndarray | str | os.PathLike
 """A clip, T×H×W×3 uint8 frames, or a path to a video file."""
@@ -73,7 +73,9 @@ class VideoProcessingConfig:
     (where the light falls differs between sensors; a per-channel map leaves it)."""
     gel_swap: str = "whole"
     """With ``gel_image``: ``whole`` swaps the clip's whole rest frame for it; ``lighting`` only the rest frame's
-    smooth part (the rest brought down to ``gel_image``'s size and back), keeping the clip's own fine detail."""
+    smooth part (the rest brought down to ``gel_image``'s size and back), keeping the clip's own fine detail;
+    ``imprint`` the whole rest frame, adding the clip's change from it unmapped (frame → image + frame − rest): the
+    colour map's gain, 2–3× for a sensor whose gel at rest is flatter, would scale its imprint too."""
     gel_swap_above: float | None = None
     """With ``gel_image``: swap only a clip whose mapped gel at rest differs from ``gel_image`` by more than this
     (:func:`gel_rest_distance`, a mean absolute difference in [0, 1]); a clip within it is prepared as without the
@@ -339,7 +341,9 @@ def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = N
             if config.gel_swap_above is not None and gel_rest_distance(out[0], config) <= config.gel_swap_above:
                 out = out[1:]  # lit as the training sensor's own clips were: left as the colour map leaves it
             else:
-                rest = out[:1] if config.gel_swap == "whole" else _smoothed(out[0], config)[None]
+                if config.gel_swap == "imprint":  # the change from rest at its own scale, not the map's
+                    out = _turned_and_resized(chosen, config).astype(np.float32) / 255.0
+                rest = _smoothed(out[0], config)[None] if config.gel_swap == "lighting" else out[:1]
                 out = out[1:] - rest + _gel_image(config)
                 np.clip(out, 0.0, 1.0, out=out)
     else:
