@@ -16,6 +16,9 @@ under two frame preparations, which differ only for frames whose orientation is 
   imprint kept, lit as the training sensor lights its gel;
 * ``match+gel+light``: as ``match+gel+swap``, swapping only the rest frame's smooth part (``video.gel_swap:
   lighting``): the clip's own fine detail kept;
+* ``match+gel+imprint``: as ``match+gel+swap``, adding the clip's change from its rest unmapped (``video.gel_swap:
+  imprint``): the colour map's gain, 2–3× for a flatter gel, no longer scales the imprint
+  (experiments/2026-12-01_sensor_swap_train);
 * ``match+gel+swap+gate``, ``match+gel+light+gate``: the same swaps, made only for a clip whose gel at rest is lit
   farther from the training sensor's than any training clip's was (``video.gel_swap_above``, the ``swap_above`` of
   the ``--gel-image`` file; experiments/2026-11-30_sensor_gate): a clip within it is prepared as ``match+gel``.
