@@ -19,9 +19,10 @@ under two frame preparations, which differ only for frames whose orientation is 
 * ``match+gel+imprint``: as ``match+gel+swap``, adding the clip's change from its rest unmapped (``video.gel_swap:
   imprint``): the colour map's gain, 2–3× for a flatter gel, no longer scales the imprint
   (experiments/2026-12-01_sensor_swap_train);
-* ``match+gel+swap+gate``, ``match+gel+light+gate``: the same swaps, made only for a clip whose gel at rest is lit
-  farther from the training sensor's than any training clip's was (``video.gel_swap_above``, the ``swap_above`` of
-  the ``--gel-image`` file; experiments/2026-11-30_sensor_gate): a clip within it is prepared as ``match+gel``.
+* ``match+gel+swap+gate``, ``match+gel+light+gate``, ``match+gel+imprint+gate``: the same swaps, made only for a
+  clip whose gel at rest is lit farther from the training sensor's than any training clip's was
+  (``video.gel_swap_above``, the ``swap_above`` of the ``--gel-image`` file; experiments/2026-11-30_sensor_gate): a
+  clip within it is prepared as ``match+gel``.
 
 Mini frames are landscape, so both preparations give them the same input: ``val`` is answered once per model.
 
@@ -48,7 +49,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, portable, publish, stamp
 
 SWAPS = {"match+gel+swap": "whole", "match+gel+light": "lighting", "match+gel+imprint": "imprint",
-         "match+gel+swap+gate": "whole", "match+gel+light+gate": "lighting"}
+         "match+gel+swap+gate": "whole", "match+gel+light+gate": "lighting", "match+gel+imprint+gate": "imprint"}
 """Preparations that swap in the training sensor's gel at rest (``video.gel_image``), and how (``video.gel_swap``);
 those ending ``+gate`` only for clips beyond ``video.gel_swap_above``."""
 PREPARATIONS = ("as_is", "match", "match+gel", *SWAPS)
