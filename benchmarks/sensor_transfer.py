@@ -98,8 +98,8 @@ def rule_text(preparations: list[str], held: str, seen: str, seeds: int, criteri
     """The rule the page's preparations were measured under (each fixed before its first answer); ``criteria``: the
     file holding it, for models trained differently (their decision applies it)."""
     if criteria is not None:
-        return (f"Rule fixed before the first of these models was trained: {portable(str(criteria))} (its "
-                "decision.md applies it).")
+        return (f"Rules in {portable(str(criteria))}, each fixed before the training or the answers it judges (its "
+                "decision.md applies them).")
     swaps = [p for p in preparations if p in SWAPS]
     if swaps:
         folder = "2026-11-30_sensor_gate" if any(p.endswith("+gate") for p in swaps) else "2026-11-30_sensor_swap"

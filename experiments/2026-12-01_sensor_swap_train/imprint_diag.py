@@ -84,11 +84,10 @@ def main() -> None:
     config = VideoProcessingConfig.from_dict(saved["video"])
     rest = video_processing._gel_image(config)
     strength: dict[str, list[float]] = {}
+    data = Path(json.loads((args.bench / "bench.json").read_text())["data"])
     for split in ("val", "val_heldout_sensor"):
         for line in (small / f"{split}.jsonl").read_text().splitlines():
-            item = json.loads(line)
-            video = item["videos"][0]
-            clip = Path(json.loads((args.bench / "bench.json").read_text())["data"]) / video["path"]
+            clip = data / json.loads(line)["videos"][0]["path"]
             frames = original(str(clip), config)
             unnormalised = frames.transpose(0, 2, 3, 1) * np.asarray(config.std) + np.asarray(config.mean)
             strength.setdefault(split, []).append(float(np.abs(unnormalised - rest).mean()) * 255)

@@ -16,7 +16,7 @@ import json
 from dataclasses import replace
 from pathlib import Path
 
-from tacreasoner.recipes.quickstart import QuickstartRun, QuickstartSettings, quickstart_stages, run_stages
+from tacreasoner.recipes.quickstart import QuickstartRun, QuickstartSettings, Stage, quickstart_stages, run_stages
 from tacreasoner.recipes.quickstart_parts import GEL_REFERENCE_CLIPS, QuickstartPaths, _train_clips, train_gel_reference
 
 
@@ -49,8 +49,8 @@ def main() -> None:
     stages = {s.name: s for s in quickstart_stages(QuickstartRun(out=args.out, seeds=3), settings)}
     paths = QuickstartPaths(args.out)
     run_stages([*(stages[n] for n in ("simulate", "benchmark", "llm", "encoder")),
-                type(stages["train"])("swap", "colour map + average gel at rest into the frame preparation",
-                                      lambda: swap_in_training(paths)),
+                Stage("swap", "colour map + average gel at rest into the frame preparation",
+                      lambda: swap_in_training(paths)),
                 stages["train"]])
 
 
