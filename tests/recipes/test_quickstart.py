@@ -41,14 +41,15 @@ def test_quickstart_settings_ship_with_the_package_and_name_the_recommended_mode
     assert settings.eval_dtype == "auto"  # bf16 answering only where the hardware has it (chosen on val)
     assert settings.answers == "auto"  # how ask/serve/demo answer the published model (chosen on val)
     assert settings.gel_reference == "train" and "gel_reference" not in settings.encoder  # chosen on val
-    assert settings.gel_swap == "gate" and "gel_swap" not in settings.encoder  # chosen on val
+    assert settings.gel_swap == "imprint" and "gel_swap" not in settings.encoder  # chosen on val
 
 
 def test_quickstart_stages_follow_the_data_flow(tmp_path: Path) -> None:
     stages = quickstart_stages(QuickstartRun(tmp_path / "qs"))
     names = [stage.name for stage in stages]
-    assert names == ["simulate", "preview", "benchmark", "baselines", "llm", "encoder", "train", "evaluate", "ask"]
-    assert any(word in stages[6].purpose for word in ("bf16", "float32"))  # said before the long wait, not after
+    assert names == ["simulate", "preview", "benchmark", "baselines", "llm", "encoder", "swap", "train", "evaluate",
+                     "ask"]
+    assert any(word in stages[7].purpose for word in ("bf16", "float32"))  # said before the long wait, not after
     data_only = [stage.name for stage in quickstart_stages(QuickstartRun(tmp_path / "qs", train=False))]
     assert data_only == names[:4]
 

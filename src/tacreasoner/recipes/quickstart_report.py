@@ -160,7 +160,8 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
     if gel_reference == "train":
         reference, measured = train_gel_reference(paths)
         gel_line = ("each clip's colours mapped to the gel at rest of the run's train clips "
-                    f"(`video.gel_reference`, {paths.gel_reference.name}; training read them unmapped)")
+                    f"(`video.gel_reference`, {paths.gel_reference.name}; training read them "
+                    f"{'mapped too' if gel_swap == 'imprint' else 'unmapped'})")
     if gel_swap == "gate" and reference is not None and models:  # measured for the frames the models prepare
         video = saved_processor_config(next(iter(models.values()))).get("video") or {}
         swap, swapped = train_gel_swap(paths, {**video, "gel_reference": reference})
