@@ -41,16 +41,28 @@ def test_quickstart_settings_ship_with_the_package_and_name_the_recommended_mode
     assert settings.eval_dtype == "auto"  # bf16 answering only where the hardware has it (chosen on val)
     assert settings.answers == "auto"  # how ask/serve/demo answer the published model (chosen on val)
     assert settings.gel_reference == "train" and "gel_reference" not in settings.encoder  # chosen on val
-    assert settings.gel_swap == "gate" and "gel_swap" not in settings.encoder  # chosen on val
+    assert settings.gel_swap == "imprint" and "gel_swap" not in settings.encoder  # chosen on val
 
 
 def test_quickstart_stages_follow_the_data_flow(tmp_path: Path) -> None:
     stages = quickstart_stages(QuickstartRun(tmp_path / "qs"))
     names = [stage.name for stage in stages]
-    assert names == ["simulate", "preview", "benchmark", "baselines", "llm", "encoder", "train", "evaluate", "ask"]
-    assert any(word in stages[6].purpose for word in ("bf16", "float32"))  # said before the long wait, not after
+    assert names == ["simulate", "preview", "benchmark", "baselines", "llm", "encoder", "swap", "train", "evaluate",
+                     "ask"]
+    assert any(word in stages[7].purpose for word in ("bf16", "float32"))  # said before the long wait, not after
     data_only = [stage.name for stage in quickstart_stages(QuickstartRun(tmp_path / "qs", train=False))]
     assert data_only == names[:4]
+
+
+def test_training_on_swapped_frames_adds_a_swap_stage_before_training(tmp_path: Path) -> None:
+    from dataclasses import replace
+
+    settings = QuickstartSettings.load()
+    for swap, extra in (("imprint", ["swap"]), ("gate", []), ("none", [])):
+        stages = quickstart_stages(QuickstartRun(tmp_path / "qs"), replace(settings, gel_swap=swap))
+        names = [stage.name for stage in stages]
+        assert names == ["simulate", "preview", "benchmark", "baselines", "llm", "encoder", *extra, "train",
+                         "evaluate", "ask"], swap
 
 
 def test_a_broken_settings_file_is_named(tmp_path: Path) -> None:
@@ -58,12 +70,13 @@ def test_a_broken_settings_file_is_named(tmp_path: Path) -> None:
     broken.write_text("simulate: {objects: 3}\n")
     with pytest.raises(ValueError, match=r"quickstart\.yaml: not a quickstart settings file"):
         QuickstartSettings.load(broken)
+    swap = QuickstartSettings.load().gel_swap
     for shipped, edited, message in [  # one bad value at a time, each named
             ("dtype: auto", "dtype: fp8", r"not a quickstart settings file \(dtype must be one of .*got 'fp8'\)"),
             ("gel_reference: train", "gel_reference: val", r"gel_reference must be one of train, none, got 'val'"),
             ("background: keep", "background: subtract", r"gel_reference 'train' needs background 'keep'"),
-            ("gel_swap: gate", "gel_swap: always", r"gel_swap must be one of gate, none, got 'always'"),
-            ("gel_reference: train", "gel_reference: none", r"gel_swap 'gate' needs gel_reference 'train'")]:
+            (f"gel_swap: {swap}", "gel_swap: always", r"gel_swap must be one of imprint, gate, none, got 'always'"),
+            ("gel_reference: train", "gel_reference: none", rf"gel_swap '{swap}' needs gel_reference 'train'")]:
         assert shipped in QUICKSTART_SETTINGS.read_text()
         broken.write_text(QUICKSTART_SETTINGS.read_text().replace(shipped, edited))
         with pytest.raises(ValueError, match=message):
@@ -280,3 +293,68 @@ def test_the_quickstart_answers_with_its_gel_reference_and_publishes_it(trained_
     redone = json.loads((paths.evaluation / "test" / "predictions" / "seed0.jsonl").read_text().splitlines()[0])
     assert " processor=" in redone["answered_by"] and redone["answered_by"] != answered["answered_by"]
 
+
+
+def _train_clips_of(root: Path, sensor: str = "mini") -> list:
+    from tacreasoner.data.readers import read_sim_dataset
+
+    info = json.loads((root / "bench" / "bench.json").read_text())
+    return [c for c in read_sim_dataset(info["data"]) if info["splits"][c.object_id] == "train" and c.sensor == sensor]
+
+
+def test_the_swap_stage_writes_the_train_clips_gel_at_rest_into_the_frames_training_reads(trained_run) -> None:
+    from tacreasoner.model.video_processing import VideoProcessingConfig, measure_gel_image, preprocess_video
+    from tacreasoner.recipes.quickstart_parts import swap_in_training, train_gel_reference
+
+    root, _ = trained_run
+    paths = QuickstartPaths(root / "swap_trained")
+    shutil.copytree(root / "bench", paths.bench)
+    paths.encoder.mkdir(parents=True)
+    plain = {"num_frames": 4, "image_size": [24, 32], "background": "keep", "orientation": "match"}
+    (paths.encoder / "video_processing.json").write_text(json.dumps(plain))
+    lines = swap_in_training(paths, max_clips=4)
+    video = json.loads((paths.encoder / "video_processing.json").read_text())
+    reference, _ = train_gel_reference(paths)  # kept from the swap stage, measured on train clips only
+    mapped = VideoProcessingConfig.from_dict({**plain, "gel_reference": reference})
+    train = _train_clips_of(root)
+    assert video["gel_reference"] == reference and "gel_swap" not in video  # training swaps the whole rest frame
+    kept = json.loads(paths.gel_image.read_text())
+    assert video["gel_image"] == measure_gel_image(train[:4], mapped) == kept["image"]
+    assert kept["clips"] == [c.clip_id for c in train[:4]] and kept["split"] == "train"
+    swapped = VideoProcessingConfig.from_dict(video)
+    assert not np.array_equal(preprocess_video(train[0], swapped), preprocess_video(train[0], mapped))
+    assert "4 train clips swapped into every frame Stage I and II read" in lines[-1]
+    assert swap_in_training(paths)[0].startswith("already there")  # re-run: the models keep the frames they read
+    stale = QuickstartPaths(root / "trained_plain")
+    shutil.copytree(paths.bench, stale.bench)
+    shutil.copytree(paths.encoder, stale.encoder)
+    (stale.encoder / "video_processing.json").write_text(json.dumps(plain))
+    (stale.train(0) / "stage1").mkdir(parents=True)
+    with pytest.raises(ValueError, match=r"seed0 trained on frames without the gel swap; move them aside"):
+        swap_in_training(stale)
+
+
+def test_a_swap_trained_model_answers_with_the_imprint_at_its_own_scale(trained_run, tmp_path: Path) -> None:
+    from tacreasoner.model.processing import TacReasonerProcessor
+    from tacreasoner.model.video_processing import VideoProcessingConfig, measure_gel_image
+
+    root, _ = trained_run
+    paths = QuickstartPaths(tmp_path / "qs")
+    shutil.copytree(root / "bench", paths.bench)
+    model = shutil.copytree(QuickstartPaths(root).train(0) / "stage2" / "model", tmp_path / "model")
+    config_path = model / "processor_config.json"
+    config = json.loads(config_path.read_text())
+    with pytest.raises(ValueError, match=r"trained without a gel swap \(no video.gel_image\)"):
+        evaluate_and_report(paths, {0: model}, {}, gel_reference="train", gel_swap="imprint")
+    reference = {k: v for k, v in json.loads(paths.gel_reference.read_text()).items() if k in ("mean", "std")}
+    video = {**config["video"], "background": "keep", "gel_reference": reference}
+    image = measure_gel_image(_train_clips_of(root)[:3], VideoProcessingConfig.from_dict(video))
+    config["video"] = {**video, "gel_image": image}  # as the swap stage leaves the frames training reads
+    config_path.write_text(json.dumps(config))
+    report = evaluate_and_report(paths, {0: model}, {}, gel_reference="train", gel_swap="imprint")
+    for folder in (model, paths.model):
+        answered = TacReasonerProcessor.from_pretrained(folder).video_config.to_dict()
+        assert answered["gel_swap"] == "imprint" and answered["gel_image"] == image
+        assert answered["gel_reference"] == reference and "gel_swap_above" not in answered  # every clip swapped
+    assert "its change from its own rest added at its own scale" in report.path.read_text()
+    assert any(line.startswith("gel swap in training and answering") for line in report.summary_lines)

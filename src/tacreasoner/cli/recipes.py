@@ -48,7 +48,7 @@ def quickstart(
     overrides: Overrides = None,
 ) -> None:
     """The recommended DynTAC-Sim model from nothing, on this machine: simulate → benchmark → baselines → SmolLM2 →
-    EfficientNet-Lite0 encoder → Stage I → Stage II → held-out test objects scored → report → ask (resumable:
+    EfficientNet-Lite0 encoder → gel swap → Stage I → Stage II → held-out test objects scored → report → ask (resumable:
     re-running skips finished work). Settings: the package's recipes/quickstart.yaml."""
     from tacreasoner.recipes.quickstart import QuickstartRun, run_quickstart
 

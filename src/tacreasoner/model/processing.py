@@ -456,13 +456,18 @@ def record_gel_reference(model_dir: str | os.PathLike[str], reference: dict[str,
     untouched. Training read its frames without the map: it is an answering-time preparation. ``swap``
     (``{image, swap_above}``, with a reference) also records the training clips' average gel at rest and the gate
     (``video.gel_image``, ``video.gel_swap_above``): a clip lit unlike every training clip (another sensor) has it
-    swapped in; None removes them."""
+    swapped in; without ``swap_above`` every clip is; an optional ``mode`` is ``video.gel_swap``. None removes
+    them."""
     path, data = _read_processor_config(model_dir)
     video = {k: v for k, v in dict(data.get("video") or {}).items() if k not in GEL_KEYS}
     if reference is not None:
         video["gel_reference"] = {k: [float(v) for v in reference[k]] for k in ("mean", "std")}
     if swap is not None:
-        video.update(gel_image=swap["image"], gel_swap_above=float(swap["swap_above"]))
+        video["gel_image"] = swap["image"]
+        if swap.get("swap_above") is not None:
+            video["gel_swap_above"] = float(swap["swap_above"])
+        if swap.get("mode", "whole") != "whole":
+            video["gel_swap"] = swap["mode"]
     try:
         video = VideoProcessingConfig.from_dict(video).to_dict()
     except (TypeError, ValueError, KeyError) as exc:

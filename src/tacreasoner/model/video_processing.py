@@ -293,14 +293,24 @@ def _turned_and_resized(frames: np.ndarray, config: VideoProcessingConfig) -> np
     return resize_keep_aspect(frames, *config.image_size, mode=config.resize_mode)
 
 
-def _prepared(frames: np.ndarray, config: VideoProcessingConfig, background: np.ndarray | None) -> np.ndarray:
-    """uint8 frames turned, resized, in [0, 1] float32, and colour-mapped by ``background`` (the clip's gel at rest,
-    as recorded) when ``config.gel_reference`` is set: the frames as ``background: keep`` prepares them."""
+def _unit(frames: np.ndarray, config: VideoProcessingConfig) -> np.ndarray:
+    """uint8 frames turned, resized, in [0, 1] float32: the frames before any colour map."""
     out = _turned_and_resized(frames, config).astype(np.float32)
     out /= 255.0
-    if config.gel_reference is not None:
-        out = _to_gel_reference(out, background, config.gel_reference)
     return out
+
+
+def _mapped(unit: np.ndarray, config: VideoProcessingConfig, background: np.ndarray | None) -> np.ndarray:
+    """``unit`` frames colour-mapped by ``background`` (the clip's gel at rest, as recorded) when
+    ``config.gel_reference`` is set (a new array: ``unit`` is left as it was), else ``unit`` itself."""
+    if config.gel_reference is None:
+        return unit
+    return _to_gel_reference(unit, background, config.gel_reference)
+
+
+def _prepared(frames: np.ndarray, config: VideoProcessingConfig, background: np.ndarray | None) -> np.ndarray:
+    """The frames as ``background: keep`` prepares them: turned, resized, in [0, 1], colour-mapped."""
+    return _mapped(_unit(frames, config), config, background)
 
 
 def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = None, *,
@@ -336,13 +346,14 @@ def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = N
             background = background_frame(frames, phases)
         chosen = np.concatenate([background[None], frames[idx]])
     if keep:
-        out = _prepared(chosen, config, background)
+        unit = _unit(chosen, config)
+        out = _mapped(unit, config, background)
         if swap:
             if config.gel_swap_above is not None and gel_rest_distance(out[0], config) <= config.gel_swap_above:
                 out = out[1:]  # lit as the training sensor's own clips were: left as the colour map leaves it
             else:
                 if config.gel_swap == "imprint":  # the change from rest at its own scale, not the map's
-                    out = _turned_and_resized(chosen, config).astype(np.float32) / 255.0
+                    out = unit
                 rest = _smoothed(out[0], config)[None] if config.gel_swap == "lighting" else out[:1]
                 out = out[1:] - rest + _gel_image(config)
                 np.clip(out, 0.0, 1.0, out=out)

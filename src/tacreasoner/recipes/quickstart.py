@@ -1,10 +1,10 @@
 """``tacreasoner quickstart``: the recommended DynTAC-Sim model, trained and scored from nothing on this machine.
 
-simulate → preview → benchmark → baselines → LLM → encoder → Stage I + II per seed → held-out test objects answered
-and scored → report → one question asked. The settings are package data: ``quickstart.yaml`` (simulation, encoder,
-evaluation) and the training config it names (``quickstart-smollm2-cpu.yaml``), so the command works from any
-directory and the documented recipe is the one that runs. Every stage is safe to re-run: finished work is skipped,
-interrupted training resumes.
+simulate → preview → benchmark → baselines → LLM → encoder (→ gel swap) → Stage I + II per seed → held-out test
+objects answered and scored → report → one question asked. The settings are package data: ``quickstart.yaml``
+(simulation, encoder, evaluation) and the training config it names (``quickstart-smollm2-cpu.yaml``), so the
+command works from any directory and the documented recipe is the one that runs. Every stage is safe to re-run:
+finished work is skipped, interrupted training resumes.
 """
 
 from __future__ import annotations
@@ -28,8 +28,9 @@ QUICKSTART_SETTINGS = Path(__file__).with_name("quickstart.yaml")
 """The quickstart's own settings (shipped with the package)."""
 GEL_REFERENCES = ("train", "none")
 """``quickstart.yaml``'s ``encoder.gel_reference``: measured on the run's train clips, or no colour map."""
-GEL_SWAPS = ("gate", "none")
-"""``quickstart.yaml``'s ``encoder.gel_swap``: another sensor's gel at rest swapped for the train clips', or never."""
+GEL_SWAPS = ("imprint", "gate", "none")
+"""``quickstart.yaml``'s ``encoder.gel_swap``: every clip's gel at rest swapped for the train clips' in training and
+answering, another sensor's only when answering, or never."""
 
 Say = Callable[[str], None]
 Progress = Callable[[str], Callable[[int, int], None]]
@@ -55,7 +56,9 @@ class QuickstartSettings:
     (``video.gel_reference``), so the clips it answers are colour-mapped to it; ``none``: frames as trained."""
     gel_swap: str = "none"
     """``gate`` (with ``gel_reference: train``): each model also records the train clips' average gel at rest and
-    swaps it in for a clip lit unlike any train clip, another sensor's (``video.gel_image``, ``gel_swap_above``)."""
+    swaps it in for a clip lit unlike any train clip, another sensor's (``video.gel_image``, ``gel_swap_above``).
+    ``imprint``: that average is swapped into every clip's frames before training too (a ``swap`` stage), and each
+    model answers with the clip's change from its own rest added at its own scale (``video.gel_swap: imprint``)."""
 
     @classmethod
     def load(cls, path: Path = QUICKSTART_SETTINGS) -> QuickstartSettings:
@@ -74,8 +77,8 @@ class QuickstartSettings:
             swap = str(encoder.pop("gel_swap", "none"))
             if swap not in GEL_SWAPS:
                 raise ValueError(f"encoder.gel_swap must be one of {', '.join(GEL_SWAPS)}, got {swap!r}")
-            if swap == "gate" and gel != "train":
-                raise ValueError("encoder.gel_swap 'gate' needs gel_reference 'train' (the gel at rest is swapped "
+            if swap != "none" and gel != "train":
+                raise ValueError(f"encoder.gel_swap {swap!r} needs gel_reference 'train' (the gel at rest is swapped "
                                  "after the colours are mapped)")
             return cls(objects=int(sim["objects"]), repeats=int(sim["repeats"]), sensors=list(sim["sensors"]),
                        encoder=encoder, gel_reference=gel, gel_swap=swap, train_config=str(train["config"]),
@@ -199,6 +202,9 @@ def quickstart_stages(run: QuickstartRun, settings: QuickstartSettings | None = 
         Stage("llm", llm_source, lambda: parts.llm(paths, settings.llm, given=run.llm is not None)),
         Stage("encoder", f"appearance encoder: EfficientNet-Lite0's ImageNet weights (frozen) → {paths.encoder}",
               lambda: parts.encoder(paths, settings.encoder)),
+        *([Stage("swap", "colour map + the train clips' average gel at rest into the frames training reads → "
+                 f"{paths.encoder / 'video_processing.json'}", lambda: parts.swap_in_training(paths))]
+          if settings.gel_swap == "imprint" else []),
         Stage("train", f"Stage I (alignment) + Stage II (LoRA SFT), seeds {seeds}, {precision} → {run.out / 'train'}",
               train_all),
         Stage("evaluate", f"held-out test objects, strict answer extraction → {paths.evaluation}", evaluate_all),

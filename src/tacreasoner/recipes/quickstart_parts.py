@@ -10,7 +10,7 @@ from typing import Any
 from tacreasoner.recipes.run_folder import RunFolder
 
 __all__ = ["GEL_REFERENCE_CLIPS", "QuickstartPaths", "baselines", "bench", "encoder", "llm", "preview", "simulate",
-           "train_gel_reference", "train_gel_swap"]
+           "swap_in_training", "train_gel_reference", "train_gel_swap"]
 
 GEL_REFERENCE_CLIPS = 100
 """Train clips the gel at rest is measured on: it barely differs between clips of one sensor."""
@@ -48,6 +48,10 @@ class QuickstartPaths(RunFolder):
     @property
     def gel_swap(self) -> Path:
         return self.root / "gel_swap.json"
+
+    @property
+    def gel_image(self) -> Path:
+        return self.root / "gel_image.json"
 
 
 def simulate(paths: QuickstartPaths, objects: int, repeats: int, sensors: list[str], seed: int,
@@ -181,3 +185,34 @@ def train_gel_swap(paths: QuickstartPaths, video: dict[str, Any],
     return {"image": image, "swap_above": above}, (
         f"average gel at rest of {min(len(clips), max_clips)} train clips, swapped in for a clip lit farther from it "
         f"than any of {len(clips)} train clips ({above * 255:.1f} grey levels) → {paths.gel_swap}")
+
+
+def swap_in_training(paths: QuickstartPaths, max_clips: int = GEL_REFERENCE_CLIPS) -> list[str]:
+    """Train on swapped frames (``quickstart.yaml``'s ``gel_swap: imprint``): the colour reference and the average
+    mapped gel at rest of up to ``max_clips`` train clips written into the encoder's frame preparation before Stage
+    I, so the trained parts read every clip, of any sensor, lit alike and never lean on a clip's own rest lighting.
+    The image is kept in ``gel_image.json``; like the reference, measured on the trained styles' train clips only."""
+    import json
+
+    from tacreasoner.jsonl import atomic_write_text
+    from tacreasoner.model.video_processing import VideoProcessingConfig, measure_gel_image
+
+    file = paths.encoder / "video_processing.json"
+    video = json.loads(file.read_text(encoding="utf-8"))
+    if "gel_image" in video:
+        return [f"already there: {file}"]
+    trained = sorted(p.parent.name for p in (paths.root / "train").glob("seed*/stage*"))
+    if trained:
+        raise ValueError(f"{paths.root / 'train'}: {', '.join(dict.fromkeys(trained))} trained on frames without "
+                         "the gel swap; move them aside (or use another --out) to train with gel_swap 'imprint'")
+    reference, line = train_gel_reference(paths, max_clips)
+    config = VideoProcessingConfig.from_dict({**video, "gel_reference": reference})
+    clips = _train_clips(paths)[:max_clips]
+    image = measure_gel_image(clips, config)
+    atomic_write_text(paths.gel_image, json.dumps(
+        {"image": image, "split": "train", "sensors": sorted({c.sensor for c in clips}),
+         "clips": [c.clip_id for c in clips], "video": config.to_dict()}) + "\n")
+    swapped = VideoProcessingConfig.from_dict({**config.to_dict(), "gel_image": image}).to_dict()
+    atomic_write_text(file, json.dumps(swapped, indent=2) + "\n")
+    return [line, f"average gel at rest of {len(clips)} train clips swapped into every frame Stage I and II read "
+                  f"({paths.gel_image.name}) → {file}"]

@@ -124,6 +124,21 @@ def _precision_note(models: dict[int, Path]) -> str:
     return f", trained in {' and '.join(PRECISION_NAMES.get(p, str(p)) for p in sorted(found))}" if found else ""
 
 
+def _trained_gel_image(models: dict[int, Path]) -> dict[str, Any]:
+    """The average gel at rest the models trained with (their recorded ``video.gel_image``), to answer with
+    ``gel_swap: imprint``; one image for every seed, or a one-line error."""
+    from tacreasoner.model.processing import saved_processor_config
+
+    images = {str(m): (saved_processor_config(m).get("video") or {}).get("gel_image") for m in models.values()}
+    missing = [m for m, image in images.items() if image is None]
+    if missing:
+        raise ValueError(f"{missing[0]}: trained without a gel swap (no video.gel_image); gel_swap 'imprint' answers "
+                         "only models trained by the quickstart's swap stage")
+    if len({json.dumps(image) for image in images.values()}) > 1:
+        raise ValueError(f"{', '.join(images)}: trained with different gel images; one run folder trains with one")
+    return {"image": next(iter(images.values())), "mode": "imprint"}
+
+
 def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings: dict[str, Any], *,
                         batch_size: int = 48, max_new_tokens: int = 64, dtype: str | None = None,
                         progress: Callable[[str], Callable[[int, int], None]] | None = None,
@@ -133,7 +148,8 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
     model with ``answers`` recorded as how ``ask``/``serve``/``demo`` answer it by default. ``gel_reference``
     ``train``: each model first records the gel at rest of the run's train clips and answers colour-mapped to it
     (``none``: a recorded one is removed); ``gel_swap`` ``gate`` also records the train clips' average gel at rest,
-    swapped in for a clip lit unlike any of them (another sensor's)."""
+    swapped in for a clip lit unlike any of them (another sensor's); ``imprint`` keeps the one the models trained
+    with swapped into every clip and answers with the change from rest unmapped."""
     from datetime import datetime, timezone
 
     from tacreasoner.model.processing import record_gel_reference, saved_processor_config
@@ -144,12 +160,18 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
     if gel_reference == "train":
         reference, measured = train_gel_reference(paths)
         gel_line = ("each clip's colours mapped to the gel at rest of the run's train clips "
-                    f"(`video.gel_reference`, {paths.gel_reference.name}; training read them unmapped)")
+                    f"(`video.gel_reference`, {paths.gel_reference.name}; training read them "
+                    f"{'mapped too' if gel_swap == 'imprint' else 'unmapped'})")
     if gel_swap == "gate" and reference is not None and models:  # measured for the frames the models prepare
         video = saved_processor_config(next(iter(models.values()))).get("video") or {}
         swap, swapped = train_gel_swap(paths, {**video, "gel_reference": reference})
         gel_line += ("; a clip lit unlike every train clip (another sensor's) has its gel at rest swapped for their "
                      f"average (`video.gel_image`, `gel_swap_above`, {paths.gel_swap.name})")
+    if gel_swap == "imprint" and reference is not None and models:  # the image the models trained with
+        swap, swapped = _trained_gel_image(models), f"the one the models trained with ({paths.gel_image.name})"
+        gel_line += ("; every clip's gel at rest swapped for the train clips' average, as in training, its change "
+                     "from its own rest added at its own scale (`video.gel_image`, `gel_swap: imprint`, "
+                     f"{paths.gel_image.name})")
     for model in models.values():
         record_gel_reference(model, reference, swap)
 
@@ -189,7 +211,8 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
     if reference is not None:
         summary.append(f"colour map (video.gel_reference): {measured}")
     if swap is not None:
-        summary.append(f"gel swap for another sensor (video.gel_image): {swapped}")
+        summary.append(f"gel swap in training and answering (video.gel_image, gel_swap imprint): {swapped}"
+                       if gel_swap == "imprint" else f"gel swap for another sensor (video.gel_image): {swapped}")
     cut = _cut_lines(paths.evaluation, reports, sorted(models), max_new_tokens)
     lines += [*cut, "Per-item predictions: `eval/<split>/predictions/seed*.jsonl`; full reports with plots: "
               "`eval/<split>/report.md`.", ""]
