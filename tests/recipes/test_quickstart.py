@@ -259,15 +259,21 @@ def test_the_gel_swap_is_measured_on_train_clips_and_swaps_only_the_other_sensor
     assert not train_gel_swap(paths, {**video, "image_size": [48, 64]})[1].startswith("already there")
 
 
-def test_the_quickstart_answers_with_its_gel_reference_and_publishes_it(trained_run, tmp_path: Path) -> None:
-    from tacreasoner.model.processing import TacReasonerProcessor
-
+def _run_folder_with_a_model(trained_run, tmp_path: Path) -> tuple[QuickstartPaths, Path, Path, dict]:
+    """A fresh run folder holding the trained run's benchmark, and a copy of its model: (paths, model folder, its
+    processor_config.json, that file's contents)."""
     root, _ = trained_run
     paths = QuickstartPaths(tmp_path / "qs")
     shutil.copytree(root / "bench", paths.bench)
     model = shutil.copytree(QuickstartPaths(root).train(0) / "stage2" / "model", tmp_path / "model")
     config_path = model / "processor_config.json"
-    config = json.loads(config_path.read_text())
+    return paths, model, config_path, json.loads(config_path.read_text())
+
+
+def test_the_quickstart_answers_with_its_gel_reference_and_publishes_it(trained_run, tmp_path: Path) -> None:
+    from tacreasoner.model.processing import TacReasonerProcessor
+
+    paths, model, config_path, config = _run_folder_with_a_model(trained_run, tmp_path)
     config["video"]["background"] = "keep"  # the quickstart's frames keep their gel colours
     config_path.write_text(json.dumps(config))
     report = evaluate_and_report(paths, {0: model}, {}, gel_reference="train")
@@ -339,11 +345,7 @@ def test_a_swap_trained_model_answers_with_the_imprint_at_its_own_scale(trained_
     from tacreasoner.model.video_processing import VideoProcessingConfig, measure_gel_image
 
     root, _ = trained_run
-    paths = QuickstartPaths(tmp_path / "qs")
-    shutil.copytree(root / "bench", paths.bench)
-    model = shutil.copytree(QuickstartPaths(root).train(0) / "stage2" / "model", tmp_path / "model")
-    config_path = model / "processor_config.json"
-    config = json.loads(config_path.read_text())
+    paths, model, config_path, config = _run_folder_with_a_model(trained_run, tmp_path)
     with pytest.raises(ValueError, match=r"trained without a gel swap \(no video.gel_image\)"):
         evaluate_and_report(paths, {0: model}, {}, gel_reference="train", gel_swap="imprint")
     reference = {k: v for k, v in json.loads(paths.gel_reference.read_text()).items() if k in ("mean", "std")}
