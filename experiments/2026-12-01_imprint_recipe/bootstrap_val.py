@@ -15,7 +15,6 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-
 from per_object_val import RUNS  # the same scored answers
 
 
