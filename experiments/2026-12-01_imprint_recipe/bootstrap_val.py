@@ -15,16 +15,12 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-from per_object_val import RUNS  # the same scored answers
+from per_object_val import RUNS, val_items  # the same scored answers
 
 
 def load(folder: str, prep: str, objects: list[str]) -> list[dict[str, np.ndarray]]:
     """Per seed and style: a tasks × objects array of [right, asked] counts."""
-    items = {}
-    for split in ("val", "val_heldout_sensor"):
-        for line in Path(f"runs/sens/bench/{split}.jsonl").read_text().splitlines():
-            item = json.loads(line)
-            items[item["id"]] = (item["task"], item["objects"][0])
+    items = val_items()
     index = {o: k for k, o in enumerate(objects)}
     tasks = sorted({t for t, _ in items.values()})
     seeds = []

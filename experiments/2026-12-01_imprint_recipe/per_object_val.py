@@ -22,12 +22,18 @@ def family(object_id: str) -> str:
     return re.sub(r"_\d+$", "", object_id)
 
 
-def main() -> None:
+def val_items() -> dict[str, tuple[str, str]]:
+    """Every val item of both styles: id → (task, its first object)."""
     items = {}
     for split in ("val", "val_heldout_sensor"):
         for line in Path(f"runs/sens/bench/{split}.jsonl").read_text().splitlines():
             item = json.loads(line)
-            items[item["id"]] = family(item["objects"][0])
+            items[item["id"]] = (item["task"], item["objects"][0])
+    return items
+
+
+def main() -> None:
+    items = {key: family(obj) for key, (_, obj) in val_items().items()}
     for name, (folder, prep) in RUNS.items():
         right: dict[tuple[str, str], list[int]] = defaultdict(lambda: [0, 0])
         for seed in sorted(Path(folder).glob("seed*")):

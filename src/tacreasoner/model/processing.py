@@ -453,7 +453,8 @@ def record_gel_reference(model_dir: str | os.PathLike[str], reference: dict[str,
                          swap: dict[str, Any] | None = None) -> None:
     """Record in a saved model folder the training sensor's gel at rest (``processor_config.json``'s
     ``video.gel_reference``; None removes it), so every clip it answers is colour-mapped to it; the weights are
-    untouched. Training read its frames without the map: it is an answering-time preparation. ``swap``
+    untouched; where training read its frames without the map (the gate's recipe), it is an answering-time
+    preparation, and a model trained on mapped, swapped frames records the same map it trained with. ``swap``
     (``{image, swap_above}``, with a reference) also records the training clips' average gel at rest and the gate
     (``video.gel_image``, ``video.gel_swap_above``): a clip lit unlike every training clip (another sensor) has it
     swapped in; without ``swap_above`` every clip is; an optional ``mode`` is ``video.gel_swap``. None removes
