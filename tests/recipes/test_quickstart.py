@@ -300,7 +300,6 @@ def test_the_quickstart_answers_with_its_gel_reference_and_publishes_it(trained_
     assert " processor=" in redone["answered_by"] and redone["answered_by"] != answered["answered_by"]
 
 
-
 def _train_clips_of(root: Path, sensor: str = "mini") -> list:
     from tacreasoner.data.readers import read_sim_dataset
 
