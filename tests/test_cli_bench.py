@@ -48,6 +48,24 @@ def test_baseline_score_and_compare(bench: Path, tmp_path: Path) -> None:
     assert json.loads((tmp_path / "cmp" / "comparison.json").read_text())["overall"]["n"] > 0
 
 
+def test_an_evaluation_corpus_keeps_a_models_train_objects_out_of_val_and_test(
+        bench: Path, small_sim_dataset: Path, tmp_path: Path) -> None:
+    """A second corpus built to evaluate a model must not ask it about objects it trained on."""
+    first = json.loads((bench / "bench.json").read_text())["splits"]
+    trained = {obj for obj, split in first.items() if split == "train"}
+    out = tmp_path / "eval_bench"
+    result = invoke("build-bench", "--source", "sim", "--data", small_sim_dataset, "--out", out, "--seed", 5,
+                    "--fractions", "0,0.5,0.5", "--keep-train-of", bench)
+    assert result.exit_code == 0, result.output
+    info = json.loads((out / "bench.json").read_text())
+    assert info["kept_in_train"] == sorted(trained) and info["fractions"] == [0, 0.5, 0.5]
+    assert {obj for obj, split in info["splits"].items() if split == "train"} == trained
+    for split in ("val", "test"):
+        asked = {obj for item in load_bench(out, split)[1] for obj in item.objects}
+        assert asked and not asked & trained
+    assert f"{len(trained)} object(s) kept in train" in result.output
+
+
 @pytest.mark.parametrize(
     ("args", "needle"),
     [
@@ -55,6 +73,12 @@ def test_baseline_score_and_compare(bench: Path, tmp_path: Path) -> None:
         (["build-bench", "--source", "octopi", "--data", ".", "--out", "x"], "unknown source"),
         (["build-bench", "--source", "sim", "--data", "/no/such/dir", "--out", "x"], "no such directory"),
         (["baseline", "--bench", "/no/bench", "--kind", "random", "--out", "p.jsonl"], "not a benchmark directory"),
+        (["build-bench", "--source", "sim", "--data", ".", "--out", "x", "--fractions", "0.5,0.5"],
+         "three shares"),
+        (["build-bench", "--source", "sim", "--data", ".", "--out", "x", "--fractions", "0.5,0.5,0.5"],
+         "summing to 1"),
+        (["build-bench", "--source", "sim", "--data", ".", "--out", "x", "--keep-train-of", "/no/bench"],
+         "not a benchmark directory"),
     ],
 )
 def test_errors_are_one_line(args: list[str], needle: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

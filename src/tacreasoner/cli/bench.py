@@ -28,12 +28,20 @@ def build_bench_cmd(
         "--vocabulary", help="Answer phrases: the source's own by default; physiclear for simulated clips asks them "
                              "in PhysiCLeAR's words and tasks (to train a real-data model beside them).",
         show_default=False)] = None,
+    fractions: Annotated[str, typer.Option(
+        "--fractions", help="Shares of the objects in train,val,test (an evaluation-only corpus can give val "
+                            "and test more).")] = "0.7,0.15,0.15",
+    keep_train_of: Annotated[Path | None, typer.Option(
+        "--keep-train-of", help="A model's own benchmark: its train objects stay in train here, never in val or "
+                                "test (a second simulated corpus starts with the same named objects).")] = None,
 ) -> None:
     """Build a benchmark directory: object-level splits, QA items per task, bench.json with counts."""
     from tacreasoner.data.readers import default_physiclear_dir
-    from tacreasoner.tasks.bench import build_bench
+    from tacreasoner.tasks.bench import build_bench, train_objects_of
 
     at_least_one("--per-task", per_task)
+    shares = _fractions(fractions)
+    train_objects = train_objects_of(keep_train_of) if keep_train_of is not None else set()
     if data is None:
         if source != "physiclear":
             raise ValueError(f"--source {source} needs --data")
@@ -43,11 +51,22 @@ def build_bench_cmd(
     if not data.exists():
         raise FileNotFoundError(f"{data}: no such directory")
     summary = build_bench(source, data, out, seed=seed, ranks=ranks, heldout_sensor=heldout_sensor,
-                          per_task=per_task, vocabulary=vocabulary)
+                          per_task=per_task, vocabulary=vocabulary, fractions=shares, train_objects=train_objects)
     console.print(summary.table())
     for note in summary.notes:
         console.print(f"note: {note}")
     console.print(f"Benchmark written to {out}")
+
+
+def _fractions(text: str) -> tuple[float, float, float]:
+    try:
+        shares = tuple(float(x) for x in comma_list(text))
+    except ValueError:
+        shares = ()
+    if len(shares) != 3 or any(x < 0 for x in shares) or abs(sum(shares) - 1) > 1e-6:
+        raise ValueError(f"--fractions {text!r}: expected three shares >= 0 for train,val,test summing to 1, "
+                         f"e.g. 0.5,0.25,0.25")
+    return shares  # type: ignore[return-value]
 
 
 @app.command("paraphrase-bench")

@@ -15,7 +15,7 @@ import dataclasses
 import json
 import re
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -140,23 +140,41 @@ def _build_split(clips: Sequence[TactileClip], tasks: Sequence[str], vocabulary:
     return items
 
 
-def _assign_splits(clips: Sequence[TactileClip], seed: int, fractions: tuple[float, float, float]) -> dict[str, str]:
+def _assign_splits(clips: Sequence[TactileClip], seed: int, fractions: tuple[float, float, float],
+                   train_objects: Collection[str] = ()) -> dict[str, str]:
     from tacreasoner.data.splits import object_level_split
 
     objects = sorted({c.object_id for c in clips})
     fixed = {c.object_id: c.split for c in clips if c.split in SPLITS}
+    fixed.update({o: "train" for o in train_objects if o in objects})
     return object_level_split(objects, fractions=fractions, seed=seed, fixed=fixed)
+
+
+def train_objects_of(bench_dir: str | Path) -> set[str]:
+    """The objects another benchmark put in its train split: what a model trained on it has seen."""
+    path = Path(bench_dir) / BENCH_INFO
+    if not path.is_file():
+        raise FileNotFoundError(f"{bench_dir}: not a benchmark directory (no {BENCH_INFO}; run `tacreasoner "
+                                f"build-bench`)")
+    splits = json.loads(path.read_text()).get("splits")
+    if not isinstance(splits, dict):
+        raise ValueError(f"{path}: field 'splits' should map each object to its split")
+    return {str(obj) for obj, split in splits.items() if split == "train"}
 
 
 def build_bench(source: str, data: str | Path, out_dir: str | Path, *, seed: int = 0, ranks: str | Path | None = None,
                 heldout_sensor: str | None = None, per_task: int | None = None,
                 fractions: tuple[float, float, float] = (0.7, 0.15, 0.15),
-                vocabulary: str | None = None) -> BenchSummary:
+                vocabulary: str | None = None, train_objects: Collection[str] = ()) -> BenchSummary:
     """Write a benchmark directory; returns what was written (counts per split and task).
 
     ``vocabulary``: the answer phrases, by default the source's own (VTV-150K's for simulated clips). Simulated
     clips carry PhysiCLeAR's labels too, so ``source="sim", vocabulary="physiclear"`` asks them in PhysiCLeAR's
-    words and tasks: the simulated data a real-data model trains on beside (or instead of) PhysiCLeAR."""
+    words and tasks: the simulated data a real-data model trains on beside (or instead of) PhysiCLeAR.
+
+    ``train_objects`` (e.g. ``train_objects_of`` a model's own benchmark) stay in train here: a second simulated
+    corpus built to evaluate that model starts with the same named objects, and none it trained on may reach val or
+    test. An object is matched by its id alone, so a procedural object that only shares a name is kept out too."""
     from tacreasoner.data.splits import check_no_leakage
     from tacreasoner.tasks.formats import write_jsonl
 
@@ -182,7 +200,10 @@ def build_bench(source: str, data: str | Path, out_dir: str | Path, *, seed: int
         if held is None:
             notes.append("only one sensor style in the dataset: no held-out-sensor test file")
     main = [c for c in clips if c.sensor != held]
-    split_of = _assign_splits(main, seed, fractions)
+    split_of = _assign_splits(main, seed, fractions, train_objects)
+    kept = sorted(set(train_objects) & set(split_of))
+    if train_objects:
+        notes.append(f"{len(kept)} object(s) kept in train because a model trained on them")
     check_no_leakage((split_of[c.object_id], c.object_id) for c in main)
 
     out.mkdir(parents=True, exist_ok=True)
@@ -233,6 +254,8 @@ def build_bench(source: str, data: str | Path, out_dir: str | Path, *, seed: int
         "sensors": sensors,
         "tasks": all_tasks,
         "splits": dict(sorted(split_of.items())),
+        "fractions": list(fractions),
+        "kept_in_train": kept,
         "counts": counts,
         "objects": objects,
         "notes": notes,
