@@ -47,6 +47,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import header_md, md_table, portable, publish, stamp
+from _object_bootstrap import bootstrap, item_objects, scored_counts, seed_mean
 
 SWAPS = {"match+gel+swap": "whole", "match+gel+light": "lighting", "match+gel+imprint": "imprint",
          "match+gel+swap+gate": "whole", "match+gel+light+gate": "lighting", "match+gel+imprint+gate": "imprint"}
@@ -132,6 +133,30 @@ def evaluate(model: Path, bench: Path, split: str, out: Path, dtype: str) -> dic
     return {"average": report["average"]["value"], "tasks": {t["task"]: t["accuracy"] for t in report["tasks"]}}
 
 
+def object_intervals(bench: Path, out: Path, seeds: int, seen: str, held: str, preparations: list[str],
+                     no_plain_seen: bool, draws: int) -> dict[str, tuple[float, float, float]]:
+    """Each preparation's seen and held-out averages and their gap (mean over seeds), as measured and the central
+    95% over ``draws`` resamplings of the split's objects (benchmarks/_object_bootstrap.py)."""
+    items = item_objects(bench, [seen, held])
+    objects = sorted({obj for _, obj in items.values()})
+    tasks = sorted({task for task, _ in items.values()})
+
+    def per_seed(folder: str, split: str) -> list:
+        return [scored_counts(out / f"seed{k}" / folder / "scored" / f"{split}.jsonl", items, tasks, objects)
+                for k in range(seeds)]
+
+    statistics = {}
+    for p in preparations:
+        if p not in CHANGES_SEEN and no_plain_seen:
+            continue
+        seen_of = seed_mean(per_seed(f"{seen}_{p}" if p in CHANGES_SEEN else seen, seen))
+        held_of = seed_mean(per_seed(f"{held}_{p}", held))
+        statistics[f"{p}: seen"] = seen_of
+        statistics[f"{p}: held-out"] = held_of
+        statistics[f"{p}: gap"] = lambda w, a=seen_of, b=held_of: a(w) - b(w)
+    return bootstrap(statistics, len(objects), draws) if statistics else {}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--bench", type=Path, required=True)
@@ -152,6 +177,8 @@ def main() -> None:
                     "for the +gate forms also {swap_above} (experiments/2026-11-30_sensor_gate/swap_above.py)")
     ap.add_argument("--criteria", type=Path, help="the criteria file whose rule the page reports (models trained "
                     "otherwise than the quickstart; default: the answer-time preparations' rules)")
+    ap.add_argument("--draws", type=int, default=2000, help="resamplings of the split's objects for the 95%% ranges "
+                    "(0: none)")
     args = ap.parse_args()
     if args.no_plain_seen and set(args.preparations) - set(CHANGES_SEEN):
         ap.error(f"--no-plain-seen: the gap of {', '.join(set(args.preparations) - set(CHANGES_SEEN))} is to the "
@@ -197,6 +224,12 @@ def main() -> None:
             "swap_adopted_by_rule": swap_adopted or None,
             "gel_image": portable(str(args.gel_image)) if args.gel_image else None, "gel_swap_above": swap_above,
             "criteria": portable(str(args.criteria)) if args.criteria else None}
+    intervals = object_intervals(args.bench, args.out, len(results), seen, held, args.preparations,
+                                 args.no_plain_seen, args.draws) if args.draws > 0 else {}
+    n_objects = bench.get("objects", {}).get(seen)
+    data["object_intervals"] = {"draws": args.draws, "objects": n_objects,
+                                "ranges": {k: {"measured": v[0], "low": v[1], "high": v[2]}
+                                           for k, v in intervals.items()}} if intervals else None
     first_seed = next(iter(results.values()))
     tasks = list(next(iter(first_seed.values()))["tasks"])  # every answered split asks the same tasks
     md = header_md(f"A sensor style never seen in training: {seen} (Mini) against {held} "
@@ -221,6 +254,12 @@ def main() -> None:
     md += (f"\nGap to the seen style (seen − held-out, mean over seeds): {gaps} points (target ≤ 5)."
            + (f" Rule: `match` {'adopted' if adopted else 'not adopted'}." if seen == "val" and both else "")
            + "".join(f" Rule: `{p}` {'adopted' if ok else 'not adopted'}." for p, ok in swap_adopted.items()) + "\n")
+    if intervals:
+        md += (f"\nHow far these move with which objects {seen} holds ({n_objects} objects; {args.draws} resamplings "
+               "of them, both styles and all seeds on each draw; benchmarks/_object_bootstrap.py): the central 95%. "
+               "A seed spread says nothing of this.\n\n")
+        md += md_table(["mean over seeds", "as measured", "95% of draws within"],
+                       [[k, f"{v[0]:.1f}", f"{v[1]:.1f} to {v[2]:.1f}"] for k, v in intervals.items()])
     publish(args.name or f"sensor_transfer_{seen}", data, md)
 
 
