@@ -9,9 +9,11 @@ from tacreasoner.data.clip import TactileClip
 from tacreasoner.model.encoder_config import TactileEncoderConfig
 from tacreasoner.model.video_processing import (
     VideoProcessingConfig,
+    imprint_strength,
     measure_gel_image,
     measure_gel_reference,
     measure_gel_swap_above,
+    measure_imprint_gain,
     preprocess_video,
 )
 
@@ -150,15 +152,17 @@ def test_magnitude_colour_is_the_size_of_the_change_without_its_colour() -> None
     assert VideoProcessingConfig.from_dict(config.to_dict()) == config
 
 
-def _lit_gel(seed: int, gain: tuple[float, float, float], offset: tuple[float, float, float]) -> np.ndarray:
-    """Eight 24×32 frames: a shaded gel with a growing imprint, seen through a per-channel gain and offset."""
+def _lit_gel(seed: int, gain: tuple[float, float, float], offset: tuple[float, float, float],
+             strength: tuple[float, float, float] = (40.0, 40.0, 40.0)) -> np.ndarray:
+    """Eight 24×32 frames: a shaded gel with a growing imprint (``strength`` per channel at its peak), seen through a
+    per-channel gain and offset."""
     rng = np.random.default_rng(seed)
     yy, xx = np.mgrid[0:24, 0:32]
     base = np.stack([60 + 2 * xx, 100 + 3 * yy, 120 + xx + yy], axis=-1).astype(np.float64)
     frames = []
     for t in range(8):
-        imprint = 40.0 * t / 7 * np.exp(-((yy - 12) ** 2 + (xx - 16) ** 2) / 30.0)
-        frames.append(base + imprint[..., None] + rng.normal(0, 1, base.shape))
+        imprint = t / 7 * np.exp(-((yy - 12) ** 2 + (xx - 16) ** 2) / 30.0)
+        frames.append(base + imprint[..., None] * np.asarray(strength) + rng.normal(0, 1, base.shape))
     lit = np.asarray(frames) * np.asarray(gain) + np.asarray(offset)
     return np.clip(lit, 0, 255).astype(np.uint8)
 
@@ -253,6 +257,32 @@ def test_gel_swap_imprint_keeps_another_sensors_imprint_at_its_own_scale() -> No
     assert change(flat, whole) > 1.5 * own  # the map's gain for the flatter gel inflates its imprint
     assert abs(change(flat, imprint) - own) < 0.1 * own  # kept at its own scale
     assert np.abs(preprocess_video(seen, imprint) - preprocess_video(seen, whole)).mean() < 0.01  # gain ~1: as whole
+
+
+def test_imprint_gain_brings_a_stronger_sensors_imprint_to_the_trained_strength() -> None:
+    seen = [_lit_gel(k, (1.0, 1.0, 1.0), (0, 0, 0)) for k in range(3)]
+    strong = [_lit_gel(10 + k, (1.0, 1.0, 1.0), (0, 0, 0), strength=(72.0, 60.0, 40.0)) for k in range(3)]
+    base = dict(num_frames=8, image_size=(24, 32), background="keep", mean=0.0, std=1.0,
+                gel_reference=measure_gel_reference(seen))
+    image = measure_gel_image(seen, VideoProcessingConfig(**base))
+    whole = VideoProcessingConfig(**base, gel_image=image)
+    imprint = VideoProcessingConfig(**base, gel_image=image, gel_swap="imprint")
+    gain = measure_imprint_gain(strong, seen, imprint)  # other objects' presses would do: no pairing is needed
+    assert np.allclose(gain, [40 / 72, 40 / 60, 1.0], atol=0.06)
+    assert np.allclose(measure_imprint_gain(seen, seen, imprint), 1.0, atol=0.02)  # its own sensor: unscaled
+    scaled = VideoProcessingConfig(**base, gel_image=image, gel_swap="imprint", imprint_gain=gain)
+    assert VideoProcessingConfig.from_dict(scaled.to_dict()) == scaled and "imprint_gain" not in imprint.to_dict()
+    trained = imprint_strength(seen[0], whole)
+    assert np.abs(imprint_strength(strong[0], imprint) / trained - [1.8, 1.5, 1.0]).max() < 0.15
+    assert np.abs(imprint_strength(strong[0], scaled) / trained - 1.0).max() < 0.1
+    with pytest.raises(ValueError, match="imprint_gain needs gel_swap 'imprint'"):
+        VideoProcessingConfig(**base, gel_image=image, imprint_gain=gain)
+    with pytest.raises(ValueError, match="imprint_gain must be three numbers > 0"):
+        VideoProcessingConfig(**base, gel_image=image, gel_swap="imprint", imprint_gain=[1.0, 0.0, 1.0])
+    with pytest.raises(ValueError, match="needs gel_swap 'imprint'"):
+        measure_imprint_gain(strong, seen, whole)
+    with pytest.raises(ValueError, match="give clips of both"):
+        measure_imprint_gain([], seen, imprint)
 
 
 def test_gel_swap_above_leaves_the_training_sensors_clips_and_swaps_anothers() -> None:

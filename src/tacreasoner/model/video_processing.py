@@ -25,8 +25,9 @@ from tacreasoner.data.sampling import (
 )
 from tacreasoner.fields import reject_unknown_fields
 
-__all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "gel_rest_distance", "measure_gel_image",
-           "measure_gel_reference", "measure_gel_swap_above", "preprocess_video", "sensor_index", "sensor_of"]
+__all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "gel_rest_distance", "imprint_strength",
+           "measure_gel_image", "measure_gel_reference", "measure_gel_swap_above", "measure_imprint_gain",
+           "preprocess_video", "sensor_index", "sensor_of"]
 
 BACKGROUNDS = ("subtract", "keep")
 COLOURS = ("rgb", "magnitude")
@@ -81,6 +82,11 @@ class VideoProcessingConfig:
     (:func:`gel_rest_distance`, a mean absolute difference in [0, 1]); a clip within it is prepared as without the
     swap. Set to the largest distance over the training sensor's own clips (:func:`measure_gel_swap_above`), it
     leaves the training sensor's clips as they are and swaps another sensor's."""
+    imprint_gain: tuple[float, float, float] | None = None
+    """With ``gel_swap: imprint``: the clip's change from rest scaled per channel (R, G, B) before the training
+    sensor's gel is added back. Another sensor's imprint can be stronger or weaker than the one the model trained on
+    (a simulated DIGIT's about 1.5–1.9× the Mini's); :func:`measure_imprint_gain` sets it for one's own sensor from
+    unlabelled clips of it (any objects) against the model's training clips. None: unscaled."""
     _gel_full: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
     """``gel_image`` at ``image_size`` (float32 in [0, 1]), made once here rather than for every clip."""
 
@@ -134,6 +140,15 @@ class VideoProcessingConfig:
             if not np.isfinite(self.gel_swap_above) or self.gel_swap_above < 0:
                 raise ValueError(f"video processing: gel_swap_above must be a number ≥ 0, got {self.gel_swap_above!r}")
             self.gel_swap_above = float(self.gel_swap_above)
+        if self.imprint_gain is not None:
+            gain = np.asarray(self.imprint_gain, dtype=np.float64)
+            if gain.shape != (3,) or not np.isfinite(gain).all() or gain.min() <= 0:
+                raise ValueError(f"video processing: imprint_gain must be three numbers > 0 (R, G, B), got "
+                                 f"{self.imprint_gain!r}")
+            if self.gel_swap != "imprint":
+                raise ValueError("video processing: imprint_gain needs gel_swap 'imprint' (it scales the change "
+                                 "from rest that the imprint swap adds unmapped)")
+            self.imprint_gain = tuple(round(float(v), 4) for v in gain)  # type: ignore[assignment]
         if self.orientation not in ORIENTATIONS:
             raise ValueError(f"video processing: orientation {self.orientation!r} is not one of "
                              f"{', '.join(ORIENTATIONS)}")
@@ -164,7 +179,8 @@ class VideoProcessingConfig:
                    if self.gel_reference is not None else {}),
                 **({"gel_image": self.gel_image} if self.gel_image is not None else {}),
                 **({"gel_swap": self.gel_swap} if self.gel_swap != "whole" else {}),
-                **({"gel_swap_above": self.gel_swap_above} if self.gel_swap_above is not None else {})}
+                **({"gel_swap_above": self.gel_swap_above} if self.gel_swap_above is not None else {}),
+                **({"imprint_gain": list(self.imprint_gain)} if self.imprint_gain is not None else {})}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None) -> VideoProcessingConfig:
@@ -247,6 +263,36 @@ def measure_gel_image(videos: Sequence[VideoInput], config: VideoProcessingConfi
     small = resize_keep_aspect(np.clip(np.rint(mean), 0, 255).astype(np.uint8), max(1, height // scale),
                                max(1, width // scale), mode="crop")
     return (small.astype(np.float64) / 255.0).round(4).tolist()
+
+
+def imprint_strength(video: VideoInput, config: VideoProcessingConfig) -> np.ndarray:
+    """Per channel, the root mean square change from the swapped-in gel at rest over ``video``'s frames as ``config``
+    prepares them (it must swap: ``gel_image``, no gate): how strong the imprint reaches the model. Squared, so a
+    sensor's pixel noise (small changes everywhere) weighs little beside the imprint (large changes where pressed)."""
+    if config.gel_image is None or config.gel_swap_above is not None:
+        raise ValueError("imprint_strength: config needs gel_image and no gel_swap_above")
+    out = preprocess_video(video, config).transpose(0, 2, 3, 1)
+    out = out * np.asarray(config.std, np.float32) + np.asarray(config.mean, np.float32)
+    return np.sqrt(np.square(out - _gel_image(config)).mean(axis=(0, 1, 2)))
+
+
+def measure_imprint_gain(sensor_videos: Sequence[VideoInput], training_videos: Sequence[VideoInput],
+                         config: VideoProcessingConfig) -> list[float]:
+    """For :attr:`VideoProcessingConfig.imprint_gain`: per channel, how much stronger the training clips' imprint
+    reached the model (prepared as trained: ``config`` with ``gel_swap: whole``) than ``sensor_videos``' does under
+    ``config``'s ``gel_swap: imprint`` — the ratio of their mean :func:`imprint_strength`. ``sensor_videos``: one's own
+    sensor's clips, unlabelled and of any objects (not those one evaluates on)."""
+    if not sensor_videos or not training_videos:
+        raise ValueError("measure_imprint_gain: give clips of both the new sensor and the training sensor")
+    if config.gel_swap != "imprint":
+        raise ValueError("measure_imprint_gain: config needs gel_swap 'imprint' (the answer-time swap it scales)")
+    plain = {**config.to_dict(), "gel_swap": "whole"}
+    plain.pop("imprint_gain", None)
+    trained = VideoProcessingConfig.from_dict(plain)
+    unscaled = VideoProcessingConfig.from_dict({**plain, "gel_swap": "imprint"})
+    target = np.mean([imprint_strength(v, trained) for v in training_videos], axis=0)
+    found = np.mean([imprint_strength(v, unscaled) for v in sensor_videos], axis=0)
+    return (target / np.maximum(found, 1e-6)).round(4).tolist()
 
 
 def measure_gel_reference(videos: Sequence[VideoInput]) -> dict[str, list[float]]:
@@ -355,7 +401,10 @@ def preprocess_video(video: VideoInput, config: VideoProcessingConfig | None = N
                 if config.gel_swap == "imprint":  # the change from rest at its own scale, not the map's
                     out = unit
                 rest = _smoothed(out[0], config)[None] if config.gel_swap == "lighting" else out[:1]
-                out = out[1:] - rest + _gel_image(config)
+                out = out[1:] - rest
+                if config.imprint_gain is not None:
+                    out *= np.asarray(config.imprint_gain, np.float32)
+                out += _gel_image(config)
                 np.clip(out, 0.0, 1.0, out=out)
     else:
         chosen = _turned_and_resized(chosen, config)
