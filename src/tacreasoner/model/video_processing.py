@@ -290,8 +290,8 @@ def measure_imprint_gain(sensor_videos: Sequence[VideoInput], training_videos: S
     plain.pop("imprint_gain", None)
     trained = VideoProcessingConfig.from_dict(plain)
     unscaled = VideoProcessingConfig.from_dict({**plain, "gel_swap": "imprint"})
-    target = np.mean([imprint_strength(v, trained) for v in training_videos], axis=0)
-    found = np.mean([imprint_strength(v, unscaled) for v in sensor_videos], axis=0)
+    target = np.mean([imprint_strength(v, trained) for v in training_videos], axis=0, dtype=np.float64)
+    found = np.mean([imprint_strength(v, unscaled) for v in sensor_videos], axis=0, dtype=np.float64)
     return (target / np.maximum(found, 1e-6)).round(4).tolist()
 
 
