@@ -359,3 +359,30 @@ def test_a_swap_trained_model_answers_with_the_imprint_at_its_own_scale(trained_
         assert answered["gel_reference"] == reference and "gel_swap_above" not in answered  # every clip swapped
     assert "its change from its own rest added at its own scale" in report.path.read_text()
     assert any(line.startswith("gel swap in training and answering") for line in report.summary_lines)
+    # the train clips' imprint strength is kept beside each model: a user's sensor is calibrated from its clips alone
+    from tacreasoner.model.video_processing import measure_imprint_gain, measure_imprint_reference
+
+    train = _train_clips_of(root)
+    answering = TacReasonerProcessor.from_pretrained(model).video_config
+    for folder in (model, paths.model):
+        kept = json.loads((folder / "sensor_reference.json").read_text())
+        assert np.allclose(kept["imprint_strength"], measure_imprint_reference(train, answering), atol=1e-5)
+        assert kept["clips"] == len(train) and kept["sensors"] == ["mini"] and kept["split"] == "train"
+    assert any(line.startswith("another sensor's imprint strength") for line in report.summary_lines)
+    from typer.testing import CliRunner
+
+    from tacreasoner.cli import app
+
+    digit = _train_clips_of(root, "digit")
+    sim = json.loads((paths.bench / "bench.json").read_text())["data"]
+    out = tmp_path / "for_digit"
+    result = CliRunner().invoke(app, ["calibrate-sensor", "--model", str(paths.model), "--clips", sim, "--sensor",
+                                      "digit", "--bench", str(paths.bench), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    gain = json.loads((out / "processor_config.json").read_text())["video"]["imprint_gain"]
+    assert np.allclose(gain, measure_imprint_gain(digit, train, answering), atol=2e-4)  # DIGIT train objects only
+    assert f"from {len(digit)} clips" in result.output and f"--model {out}" in result.output
+    assert "imprint_gain" not in json.loads((paths.model / "processor_config.json").read_text())["video"]
+    refused = CliRunner().invoke(app, ["calibrate-sensor", "--model", str(paths.model), "--clips", sim,
+                                       "--out", str(tmp_path / "unsplit")])
+    assert refused.exit_code == 2 and "carry no split; give --bench" in refused.output  # eval objects unread

@@ -174,3 +174,51 @@ def pretrain_encoder_cmd(
     console.print(f"{len(clips)} clips, {last.get('step', steps)} steps, final loss {last.get('loss', '–')}, "
                   f"{time.perf_counter() - start:.0f} s")
     console.print(f"encoder: {model_dir} (AppearanceEncoder.from_pretrained); log {model_dir / 'pretrain_log.jsonl'}")
+
+
+@app.command("calibrate-sensor")
+@cli_errors
+def calibrate_sensor_cmd(
+    clips: Annotated[list[Path], typer.Option(
+        "--clips", help="Clips of your sensor, unlabelled, of any objects (not those you will ask about): video "
+                        "files, folders of videos, or a simulator dataset (repeatable).")],
+    out: Annotated[Path, typer.Option("--out", help="New model folder that answers clips of this sensor.")],
+    model: Annotated[Path, typer.Option("--model", help="A model trained with the gel swap (the quickstart's; "
+                                        "default: its published model).")] = Path("runs/quickstart/model"),
+    sensor: Annotated[str | None, typer.Option("--sensor", help="Keep only clips of this style (a simulator "
+                                               "dataset holding several, e.g. digit).", show_default=False)] = None,
+    bench: Annotated[Path | None, typer.Option("--bench", help="The build-bench directory of a simulator dataset "
+                                               "given with --clips: only its train objects' clips are read.",
+                                               show_default=False)] = None,
+    training_clips: Annotated[list[Path] | None, typer.Option(
+        "--training-clips", show_default=False, help="Clips of the sensor the model trained on, train objects "
+                                                     "only: needed only for a model folder without "
+                                                     "sensor_reference.json (repeatable).")] = None,
+    training_bench: Annotated[Path | None, typer.Option("--training-bench", help="The build-bench directory of a "
+                                                        "simulator dataset given with --training-clips.",
+                                                        show_default=False)] = None,
+) -> None:
+    """Write a copy of a model that reads another sensor's presses at the strength it trained on (the imprint gain,
+    measured from your sensor's unlabelled clips; docs/real-data.md). Ask it with --model OUT."""
+    from tacreasoner.model.sensor_calibration import calibrate_sensor
+    from tacreasoner.train.pretrain_encoder import gather_pretraining_clips
+
+    def gather(paths: list[Path], split_names: Path | None, style: str | None, what: str) -> list:
+        for path in paths:
+            if split_names is None and (path / "manifest.jsonl").is_file():
+                raise ValueError(f"{path}: a simulator dataset's clips carry no split; give "
+                                 f"{'--bench' if what == '--clips' else '--training-bench'} (its build-bench "
+                                 "directory) so that only its train objects' clips are read")
+        found = gather_pretraining_clips(paths, physiclear=False, bench=split_names)
+        kept = [c for c in found.clips if style is None or c.sensor.split("+")[0].split("@")[0] == style]
+        if not kept:
+            raise ValueError(f"{what}: no clips{f' of sensor {style!r}' if style else ''} in "
+                             f"{', '.join(map(str, paths))}")
+        return kept
+
+    videos = gather(clips, bench, sensor, "--clips")
+    training = gather(training_clips, training_bench, None, "--training-clips") if training_clips else None
+    result = calibrate_sensor(model, videos, out, training_videos=training)
+    console.print(f"imprint gain {result.gain} (R, G, B) from {result.clips} clips; training strength from "
+                  f"{result.reference_from}")
+    console.print(f"model for this sensor: {result.out} (tacreasoner ask --model {result.out} …)")

@@ -25,9 +25,9 @@ from tacreasoner.data.sampling import (
 )
 from tacreasoner.fields import reject_unknown_fields
 
-__all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "gel_rest_distance", "imprint_strength",
-           "measure_gel_image", "measure_gel_reference", "measure_gel_swap_above", "measure_imprint_gain",
-           "preprocess_video", "sensor_index", "sensor_of"]
+__all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "gel_rest_distance", "imprint_gain_from_reference",
+           "imprint_strength", "measure_gel_image", "measure_gel_reference", "measure_gel_swap_above",
+           "measure_imprint_gain", "measure_imprint_reference", "preprocess_video", "sensor_index", "sensor_of"]
 
 BACKGROUNDS = ("subtract", "keep")
 COLOURS = ("rgb", "magnitude")
@@ -284,15 +284,41 @@ def measure_imprint_gain(sensor_videos: Sequence[VideoInput], training_videos: S
     sensor's clips, unlabelled and of any objects (not those one evaluates on)."""
     if not sensor_videos or not training_videos:
         raise ValueError("measure_imprint_gain: give clips of both the new sensor and the training sensor")
-    if config.gel_swap != "imprint":
-        raise ValueError("measure_imprint_gain: config needs gel_swap 'imprint' (the answer-time swap it scales)")
+    _check_imprint_swap(config, "measure_imprint_gain")
+    return imprint_gain_from_reference(sensor_videos, measure_imprint_reference(training_videos, config), config)
+
+
+def measure_imprint_reference(training_videos: Sequence[VideoInput], config: VideoProcessingConfig) -> list[float]:
+    """Per channel, the mean :func:`imprint_strength` of the training clips prepared as trained (``config`` with
+    ``gel_swap: whole``, no gain): what :func:`imprint_gain_from_reference` brings another sensor to. Kept with a model
+    (``sensor_reference.json``) so its users can measure their sensor's gain without the training clips."""
+    if not training_videos:
+        raise ValueError("measure_imprint_reference: no training clips given")
     plain = {**config.to_dict(), "gel_swap": "whole"}
     plain.pop("imprint_gain", None)
     trained = VideoProcessingConfig.from_dict(plain)
-    unscaled = VideoProcessingConfig.from_dict({**plain, "gel_swap": "imprint"})
-    target = np.mean([imprint_strength(v, trained) for v in training_videos], axis=0, dtype=np.float64)
+    return np.mean([imprint_strength(v, trained) for v in training_videos], axis=0, dtype=np.float64).tolist()
+
+
+def imprint_gain_from_reference(sensor_videos: Sequence[VideoInput], reference: Sequence[float],
+                                config: VideoProcessingConfig) -> list[float]:
+    """:func:`measure_imprint_gain` against a recorded :func:`measure_imprint_reference` (three numbers > 0)."""
+    if not sensor_videos:
+        raise ValueError("imprint gain: no clips of the new sensor given")
+    _check_imprint_swap(config, "imprint gain")
+    target = np.asarray(reference, dtype=np.float64)
+    if target.shape != (3,) or not np.isfinite(target).all() or target.min() <= 0:
+        raise ValueError(f"imprint gain: the reference must be three numbers > 0 (R, G, B), got {list(reference)!r}")
+    plain = {**config.to_dict(), "gel_swap": "imprint"}
+    plain.pop("imprint_gain", None)
+    unscaled = VideoProcessingConfig.from_dict(plain)
     found = np.mean([imprint_strength(v, unscaled) for v in sensor_videos], axis=0, dtype=np.float64)
     return (target / np.maximum(found, 1e-6)).round(4).tolist()
+
+
+def _check_imprint_swap(config: VideoProcessingConfig, what: str) -> None:
+    if config.gel_swap != "imprint":
+        raise ValueError(f"{what}: config needs gel_swap 'imprint' (the answer-time swap it scales)")
 
 
 def measure_gel_reference(videos: Sequence[VideoInput]) -> dict[str, list[float]]:

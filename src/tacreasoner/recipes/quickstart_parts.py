@@ -9,8 +9,8 @@ from typing import Any
 
 from tacreasoner.recipes.run_folder import RunFolder
 
-__all__ = ["GEL_REFERENCE_CLIPS", "QuickstartPaths", "baselines", "bench", "encoder", "llm", "preview", "simulate",
-           "swap_in_training", "train_gel_reference", "train_gel_swap"]
+__all__ = ["GEL_REFERENCE_CLIPS", "QuickstartPaths", "baselines", "bench", "encoder", "llm", "preview",
+           "record_train_sensor_reference", "simulate", "swap_in_training", "train_gel_reference", "train_gel_swap"]
 
 GEL_REFERENCE_CLIPS = 100
 """Train clips the gel at rest is measured on: it barely differs between clips of one sensor."""
@@ -185,6 +185,21 @@ def train_gel_swap(paths: QuickstartPaths, video: dict[str, Any],
     return {"image": image, "swap_above": above}, (
         f"average gel at rest of {min(len(clips), max_clips)} train clips, swapped in for a clip lit farther from it "
         f"than any of {len(clips)} train clips ({above * 255:.1f} grey levels) → {paths.gel_swap}")
+
+
+def record_train_sensor_reference(paths: QuickstartPaths, models: list[Path],
+                                  max_clips: int = GEL_REFERENCE_CLIPS) -> str:
+    """Keep beside each model trained with the gel swap how strong its train clips' imprint reached it
+    (``sensor_reference.json``), measured once on up to ``max_clips`` train clips: ``tacreasoner calibrate-sensor``
+    then sets another sensor's gain from that sensor's clips alone. Returns a line for the report."""
+    from tacreasoner.model.sensor_calibration import SENSOR_REFERENCE_NAME, record_sensor_reference
+
+    clips = _train_clips(paths)[:max_clips]
+    record = record_sensor_reference(models[0], clips)
+    for model in models[1:]:
+        record_sensor_reference(model, clips, reference=record["imprint_strength"])
+    return (f"train clips' imprint strength {record['imprint_strength']} (R, G, B; {len(clips)} clips) → "
+            f"{SENSOR_REFERENCE_NAME} in each model, for `tacreasoner calibrate-sensor`")
 
 
 def swap_in_training(paths: QuickstartPaths, max_clips: int = GEL_REFERENCE_CLIPS) -> list[str]:

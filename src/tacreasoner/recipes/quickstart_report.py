@@ -153,18 +153,18 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
     from datetime import datetime, timezone
 
     from tacreasoner.model.processing import record_gel_reference, saved_processor_config
-    from tacreasoner.recipes.quickstart_parts import train_gel_reference, train_gel_swap
+    from tacreasoner.recipes import quickstart_parts as parts
 
     reference, gel_line, measured = None, "each clip's frames as in training (no colour map)", ""
     swap, swapped = None, ""
     if gel_reference == "train":
-        reference, measured = train_gel_reference(paths)
+        reference, measured = parts.train_gel_reference(paths)
         gel_line = ("each clip's colours mapped to the gel at rest of the run's train clips "
                     f"(`video.gel_reference`, {paths.gel_reference.name}; training read them "
                     f"{'mapped too' if gel_swap == 'imprint' else 'unmapped'})")
     if gel_swap == "gate" and reference is not None and models:  # measured for the frames the models prepare
         video = saved_processor_config(next(iter(models.values()))).get("video") or {}
-        swap, swapped = train_gel_swap(paths, {**video, "gel_reference": reference})
+        swap, swapped = parts.train_gel_swap(paths, {**video, "gel_reference": reference})
         gel_line += ("; a clip lit unlike every train clip (another sensor's) has its gel at rest swapped for their "
                      f"average (`video.gel_image`, `gel_swap_above`, {paths.gel_swap.name})")
     if gel_swap == "imprint" and reference is not None and models:  # the image the models trained with
@@ -174,6 +174,9 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
                      f"{paths.gel_image.name})")
     for model in models.values():
         record_gel_reference(model, reference, swap)
+    calibration = ""
+    if gel_swap == "imprint" and swap is not None:
+        calibration = parts.record_train_sensor_reference(paths, [Path(m) for m in models.values()])
 
     splits = ("test", "test_heldout_sensor") if (paths.bench / "test_heldout_sensor.jsonl").is_file() else ("test",)
     started = time.perf_counter()
@@ -213,6 +216,8 @@ def evaluate_and_report(paths: QuickstartPaths, models: dict[int, Path], timings
     if swap is not None:
         summary.append(f"gel swap in training and answering (video.gel_image, gel_swap imprint): {swapped}"
                        if gel_swap == "imprint" else f"gel swap for another sensor (video.gel_image): {swapped}")
+    if calibration:
+        summary.append(f"another sensor's imprint strength: {calibration}")
     cut = _cut_lines(paths.evaluation, reports, sorted(models), max_new_tokens)
     lines += [*cut, "Per-item predictions: `eval/<split>/predictions/seed*.jsonl`; full reports with plots: "
               "`eval/<split>/report.md`.", ""]
