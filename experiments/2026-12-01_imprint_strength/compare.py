@@ -42,13 +42,17 @@ def main() -> None:
         return [scored_counts(REPO / folder.format(k=k) / "scored" / f"{split}.jsonl", items, tasks, objects)
                 for k in range(SEEDS)]
 
-    counts = {"Mini (imprint)": load(f"{plain}/seed{{k}}/{seen}_{PREP}", seen),
-              "DIGIT (imprint)": load(f"{plain}/seed{{k}}/{held}_{PREP}", held),
-              "DIGIT (imprint + gain)": load(f"{gained}/seed{{k}}/{held}", held)}
+    counts = {"Mini (imprint)": load(f"{plain}/seed{{k}}/{seen}_{PREP}", seen)}
+    without = REPO / plain / "seed0" / f"{held}_{PREP}" / "scored" / f"{held}.jsonl"
+    if without.is_file() or args.split == "val":  # test: the DIGIT answers without the gain may be left out (time)
+        counts["DIGIT (imprint)"] = load(f"{plain}/seed{{k}}/{held}_{PREP}", held)
+    counts["DIGIT (imprint + gain)"] = load(f"{gained}/seed{{k}}/{held}", held)
     stats = {name: seed_mean(c) for name, c in counts.items()}
-    stats["gap (imprint)"] = lambda w: stats["Mini (imprint)"](w) - stats["DIGIT (imprint)"](w)
+    if "DIGIT (imprint)" in counts:
+        stats["gap (imprint)"] = lambda w: stats["Mini (imprint)"](w) - stats["DIGIT (imprint)"](w)
     stats["gap (imprint + gain)"] = lambda w: stats["Mini (imprint)"](w) - stats["DIGIT (imprint + gain)"](w)
-    stats["DIGIT: gain − none"] = lambda w: stats["DIGIT (imprint + gain)"](w) - stats["DIGIT (imprint)"](w)
+    if "DIGIT (imprint)" in counts:
+        stats["DIGIT: gain − none"] = lambda w: stats["DIGIT (imprint + gain)"](w) - stats["DIGIT (imprint)"](w)
     out = bootstrap(stats, len(objects), args.draws)
     lines = [f"{seen} of `{bench}`: {len(objects)} objects; the imprint recipe's seeds 3–5; {args.draws} "
              "resamplings of the objects (seed 0), the same draws for every row.", "",
@@ -58,14 +62,19 @@ def main() -> None:
     per_seed = {name: [average(c, ones) for c in seeds] for name, seeds in counts.items()}
     lines += ["", "| seed | " + " | ".join(per_seed) + " |", "|---|" + "---|" * len(per_seed)]
     lines += [f"| {k + 3} | " + " | ".join(f"{v[k]:.1f}" for v in per_seed.values()) + " |" for k in range(SEEDS)]
-    every = all(a > b for a, b in zip(per_seed["DIGIT (imprint + gain)"], per_seed["DIGIT (imprint)"], strict=True))
-    lo = out["DIGIT: gain − none"][1]
     if args.split == "test":
         gap, g_lo, g_hi = out["gap (imprint + gain)"]
         lines.append(f"\nTest, read once after the rule adopted the gain on val: gap with the gain {gap:.1f} "
                      f"({g_lo:.1f} to {g_hi:.1f}); issue 60's bar (≤ 5): {'met' if gap <= 5 else 'not met'} by the mean"
                      f"{', and by the whole range' if g_hi <= 5 else ''}.")
+        if "DIGIT (imprint)" not in counts:
+            lines.append("These models' DIGIT answers without the gain were not made (time); the models first trained "
+                         "by this recipe (not rebuilt) read Mini 59.3 ± 2.6 and DIGIT 49.5 ± 2.1 without it, a gap of "
+                         "9.8 (benchmarks/results/sensor_transfer_imprint_recipe_test.md).")
     else:
+        every = all(a > b for a, b in zip(per_seed["DIGIT (imprint + gain)"], per_seed["DIGIT (imprint)"],
+                                          strict=True))
+        lo = out["DIGIT: gain − none"][1]
         lines.append(f"\nRule (criteria.md): DIGIT higher with the gain in every seed: {'yes' if every else 'no'}; "
                      f"paired range above 0: {'yes' if lo > 0 else 'no'} → "
                      f"{'adopted as the step for a new sensor' if every and lo > 0 else 'not adopted'}.")
