@@ -369,6 +369,9 @@ def test_a_swap_trained_model_answers_with_the_imprint_at_its_own_scale(trained_
         assert np.allclose(kept["imprint_strength"], measure_imprint_reference(train, answering), atol=1e-5)
         assert kept["clips"] == len(train) and kept["sensors"] == ["mini"] and kept["split"] == "train"
     assert any(line.startswith("another sensor's imprint strength") for line in report.summary_lines)
+    from tacreasoner.recipes.quickstart_parts import record_train_sensor_reference
+
+    assert record_train_sensor_reference(paths, [model]).startswith("already there")  # a rerun measures nothing
     from typer.testing import CliRunner
 
     from tacreasoner.cli import app

@@ -201,6 +201,7 @@ def calibrate_sensor_cmd(
     """Write a copy of a model that reads another sensor's presses at the strength it trained on (the imprint gain,
     measured from your sensor's unlabelled clips; docs/real-data.md). Ask it with --model OUT."""
     from tacreasoner.model.sensor_calibration import calibrate_sensor
+    from tacreasoner.model.video_processing import base_sensor
     from tacreasoner.train.pretrain_encoder import gather_pretraining_clips
 
     def gather(paths: list[Path], split_names: Path | None, style: str | None, what: str) -> list:
@@ -210,7 +211,7 @@ def calibrate_sensor_cmd(
                                  f"{'--bench' if what == '--clips' else '--training-bench'} (its build-bench "
                                  "directory) so that only its train objects' clips are read")
         found = gather_pretraining_clips(paths, physiclear=False, bench=split_names)
-        kept = [c for c in found.clips if style is None or c.sensor.split("+")[0].split("@")[0] == style]
+        kept = [c for c in found.clips if style is None or base_sensor(c.sensor) == base_sensor(style)]
         if not kept:
             raise ValueError(f"{what}: no clips{f' of sensor {style!r}' if style else ''} in "
                              f"{', '.join(map(str, paths))}")

@@ -14,7 +14,7 @@ import json
 import os
 import shutil
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -122,7 +122,7 @@ def calibrate_sensor(model_dir: str | os.PathLike[str], sensor_videos: Sequence[
     out.parent.mkdir(parents=True, exist_ok=True)
     shutil.copytree(model_dir, out, copy_function=_link_or_copy, dirs_exist_ok=True)
     data = json.loads((out / PROCESSOR_CONFIG_NAME).read_text(encoding="utf-8"))
-    data["video"] = VideoProcessingConfig.from_dict({**config.to_dict(), "imprint_gain": gain}).to_dict()
+    data["video"] = replace(config, imprint_gain=gain).to_dict()
     config_file = out / PROCESSOR_CONFIG_NAME
     config_file.unlink()  # a hard link would change the original's config too
     atomic_write_text(config_file, json.dumps(data, indent=2) + "\n")

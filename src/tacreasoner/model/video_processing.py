@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -25,9 +25,10 @@ from tacreasoner.data.sampling import (
 )
 from tacreasoner.fields import reject_unknown_fields
 
-__all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "gel_rest_distance", "imprint_gain_from_reference",
-           "imprint_strength", "measure_gel_image", "measure_gel_reference", "measure_gel_swap_above",
-           "measure_imprint_gain", "measure_imprint_reference", "preprocess_video", "sensor_index", "sensor_of"]
+__all__ = ["BACKGROUNDS", "VideoInput", "VideoProcessingConfig", "base_sensor", "gel_rest_distance",
+           "imprint_gain_from_reference", "imprint_strength", "measure_gel_image", "measure_gel_reference",
+           "measure_gel_swap_above", "measure_imprint_gain", "measure_imprint_reference", "preprocess_video",
+           "sensor_index", "sensor_of"]
 
 BACKGROUNDS = ("subtract", "keep")
 COLOURS = ("rgb", "magnitude")
@@ -294,9 +295,7 @@ def measure_imprint_reference(training_videos: Sequence[VideoInput], config: Vid
     (``sensor_reference.json``) so its users can measure their sensor's gain without the training clips."""
     if not training_videos:
         raise ValueError("measure_imprint_reference: no training clips given")
-    plain = {**config.to_dict(), "gel_swap": "whole"}
-    plain.pop("imprint_gain", None)
-    trained = VideoProcessingConfig.from_dict(plain)
+    trained = _unscaled(config, "whole")
     return np.mean([imprint_strength(v, trained) for v in training_videos], axis=0, dtype=np.float64).tolist()
 
 
@@ -309,11 +308,14 @@ def imprint_gain_from_reference(sensor_videos: Sequence[VideoInput], reference: 
     target = np.asarray(reference, dtype=np.float64)
     if target.shape != (3,) or not np.isfinite(target).all() or target.min() <= 0:
         raise ValueError(f"imprint gain: the reference must be three numbers > 0 (R, G, B), got {list(reference)!r}")
-    plain = {**config.to_dict(), "gel_swap": "imprint"}
-    plain.pop("imprint_gain", None)
-    unscaled = VideoProcessingConfig.from_dict(plain)
+    unscaled = _unscaled(config, "imprint")
     found = np.mean([imprint_strength(v, unscaled) for v in sensor_videos], axis=0, dtype=np.float64)
     return (target / np.maximum(found, 1e-6)).round(4).tolist()
+
+
+def _unscaled(config: VideoProcessingConfig, gel_swap: str) -> VideoProcessingConfig:
+    """``config`` with ``gel_swap`` and no imprint gain."""
+    return replace(config, gel_swap=gel_swap, imprint_gain=None)
 
 
 def _check_imprint_swap(config: VideoProcessingConfig, what: str) -> None:
@@ -339,9 +341,14 @@ def sensor_of(video: VideoInput) -> str:
     return video.sensor if isinstance(video, TactileClip) else "unknown"
 
 
+def base_sensor(sensor: str) -> str:
+    """A sensor style without its variant ("mini+markers", "digit@60" → "mini", "digit"), lower-case."""
+    return sensor.split("+")[0].split("@")[0].lower()
+
+
 def sensor_index(sensor: str, sensor_types: Sequence[str]) -> int:
-    """Position of a sensor style in ``sensor_types`` ("mini+markers", "digit@60" → their base style); 0 if unknown."""
-    base = sensor.split("+")[0].split("@")[0].lower()
+    """Position of a sensor style in ``sensor_types`` (by :func:`base_sensor`); 0 if unknown."""
+    base = base_sensor(sensor)
     return list(sensor_types).index(base) if base in sensor_types else 0
 
 

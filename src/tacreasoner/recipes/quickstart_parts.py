@@ -193,8 +193,17 @@ def record_train_sensor_reference(paths: QuickstartPaths, models: list[Path], ma
     ``tacreasoner calibrate-sensor`` then sets another sensor's gain from that sensor's clips alone. Every clip, as the
     gain was validated (experiments/2026-12-01_imprint_strength): the first 100, the named objects first, gave a gain
     8–16% higher. Returns a line for the report."""
-    from tacreasoner.model.sensor_calibration import SENSOR_REFERENCE_NAME, record_sensor_reference
+    from tacreasoner.model.sensor_calibration import (
+        SENSOR_REFERENCE_NAME,
+        read_sensor_reference,
+        record_sensor_reference,
+    )
 
+    try:  # a rerun (the quickstart resumed): kept while measured for the frames each model prepares
+        if all(read_sensor_reference(m) is not None for m in models):
+            return f"already there: {SENSOR_REFERENCE_NAME} in each model"
+    except ValueError:
+        pass  # measured for another preparation: measure again
     clips = _train_clips(paths)[:max_clips]
     record = record_sensor_reference(models[0], clips)
     for model in models[1:]:
